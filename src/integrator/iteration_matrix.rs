@@ -1,0 +1,185 @@
+//! The iteration matrix W = M − hθ ∂F/∂v − h²θ² ∂F/∂ν of the θ-scheme's Newton loop
+//! (`moreau_jean.md` §2.2), with ν the body-frame tangent coordinates of the poses.
+//!
+//! The gyroscopic Jacobian is analytic; the stiffness and damping of the force elements are
+//! central finite differences of each element alone (cheap: an element touches ≤ 2 bodies).
+//! W stays block diagonal, one 6×6 LU per body, unless a force element couples two moving
+//! bodies; then it is factorised densely.
+
+use crate::math::skew;
+use crate::mechanics::force::Twist;
+use crate::mechanics::{Model, Pose};
+use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6, Matrix6x3, LU, U6};
+use std::collections::BTreeMap;
+
+/// Relative finite-difference step for force-element Jacobians.
+const FD_STEP: f64 = 1e-6;
+
+enum Factor {
+    Blocks(Vec<LU<f64, U6, U6>>),
+    Dense(LU<f64, nalgebra::Dyn, nalgebra::Dyn>),
+}
+
+pub struct IterationMatrix {
+    n: usize,
+    mask: Vec<bool>,
+    factor: Factor,
+}
+
+impl IterationMatrix {
+    /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ.
+    pub fn assemble(model: &Model, t: f64, poses: &[Pose], v: &DVector<f64>, h: f64, theta: f64) -> Self {
+        let n = model.bodies.len();
+        let mask = model.dof_mask();
+        let mut diag = vec![Matrix6::zeros(); n];
+        let mut off: BTreeMap<(usize, usize), Matrix6<f64>> = BTreeMap::new();
+        for (i, b) in model.bodies.iter().enumerate() {
+            let d = &mut diag[i];
+            for k in 0..3 {
+                d[(k, k)] = b.mass;
+            }
+            d.fixed_view_mut::<3, 3>(3, 3).copy_from(&b.inertia);
+            let om = v.fixed_rows::<3>(6 * i + 3).into_owned();
+            let gyro = skew(&om) * b.inertia - skew(&(b.inertia * om));
+            let mut rot = d.fixed_view_mut::<3, 3>(3, 3);
+            rot += gyro * (h * theta);
+        }
+        let twists = crate::mechanics::model::twists_of(v);
+        let mut buf_p = vec![Twist::zeros(); n];
+        let mut buf_m = vec![Twist::zeros(); n];
+        for f in &model.forces {
+            let by_pose = f.depends_on_pose();
+            let by_vel = f.depends_on_velocity();
+            if !by_pose && !by_vel {
+                continue;
+            }
+            let bodies: Vec<usize> = f.bodies().iter().flatten().copied().filter(|&i| mask[6 * i..6 * i + 6].iter().any(|&m| m)).collect();
+            for &b in &bodies {
+                for k in 0..6 {
+                    if !mask[6 * b + k] {
+                        continue;
+                    }
+                    for (wrt_pose, weight) in [(true, h * h * theta * theta), (false, h * theta)] {
+                        if (wrt_pose && !by_pose) || (!wrt_pose && !by_vel) {
+                            continue;
+                        }
+                        let mut d = Twist::zeros();
+                        d[k] = FD_STEP;
+                        buf_p.iter_mut().for_each(|w| *w = Twist::zeros());
+                        buf_m.iter_mut().for_each(|w| *w = Twist::zeros());
+                        if wrt_pose {
+                            let mut pp = poses.to_vec();
+                            let mut pm = poses.to_vec();
+                            pp[b] = poses[b].advanced(&d);
+                            pm[b] = poses[b].advanced(&(-d));
+                            f.apply(t, &pp, &twists, &mut buf_p);
+                            f.apply(t, &pm, &twists, &mut buf_m);
+                        } else {
+                            let mut tp = twists.clone();
+                            let mut tm = twists.clone();
+                            tp[b] += d;
+                            tm[b] -= d;
+                            f.apply(t, poses, &tp, &mut buf_p);
+                            f.apply(t, poses, &tm, &mut buf_m);
+                        }
+                        for &c in &bodies {
+                            let col = (buf_p[c] - buf_m[c]) * (-weight / (2.0 * FD_STEP));
+                            let blk = if c == b { &mut diag[c] } else { off.entry((c, b)).or_insert_with(Matrix6::zeros) };
+                            blk.column_mut(k).add_assign(&col);
+                        }
+                    }
+                }
+            }
+        }
+        // held dofs: identity rows and columns, so their solution component is zero
+        let clamp = |m: &mut Matrix6<f64>, i: usize, j: usize| {
+            for r in 0..6 {
+                for c in 0..6 {
+                    if !mask[6 * i + r] || !mask[6 * j + c] {
+                        m[(r, c)] = if i == j && r == c { 1.0 } else { 0.0 };
+                    }
+                }
+            }
+        };
+        for (i, d) in diag.iter_mut().enumerate() {
+            clamp(d, i, i);
+        }
+        let factor = if off.is_empty() {
+            Factor::Blocks(diag.into_iter().map(|d| d.lu()).collect())
+        } else {
+            let mut w = DMatrix::zeros(6 * n, 6 * n);
+            for (i, d) in diag.iter().enumerate() {
+                w.fixed_view_mut::<6, 6>(6 * i, 6 * i).copy_from(d);
+            }
+            for ((i, j), mut m) in off {
+                clamp(&mut m, i, j);
+                w.fixed_view_mut::<6, 6>(6 * i, 6 * j).copy_from(&m);
+            }
+            Factor::Dense(w.lu())
+        };
+        IterationMatrix { n, mask, factor }
+    }
+
+    /// W⁻¹ rhs (held dofs give zero).
+    pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
+        let mut x = rhs.clone();
+        for (k, &m) in self.mask.iter().enumerate() {
+            if !m {
+                x[k] = 0.0;
+            }
+        }
+        match &self.factor {
+            Factor::Blocks(lus) => {
+                for (i, lu) in lus.iter().enumerate() {
+                    let b = x.fixed_rows::<6>(6 * i).into_owned();
+                    let s = lu.solve(&b).unwrap_or_else(|| Twist::from_element(f64::NAN));
+                    x.fixed_rows_mut::<6>(6 * i).copy_from(&s);
+                }
+            }
+            Factor::Dense(lu) => {
+                if !lu.solve_mut(&mut x) {
+                    x.fill(f64::NAN);
+                }
+            }
+        }
+        x
+    }
+
+    /// W⁻¹ Gᵀ for one contact with Jacobian blocks on bodies (b1, b2): the nonzero 6×3
+    /// blocks per body.
+    pub fn solve_contact(&self, blocks: &[(usize, Matrix3x6<f64>)]) -> Vec<(usize, Matrix6x3<f64>)> {
+        let masked = |b: usize, g: &Matrix3x6<f64>| {
+            let mut gt = g.transpose();
+            for k in 0..6 {
+                if !self.mask[6 * b + k] {
+                    gt.row_mut(k).fill(0.0);
+                }
+            }
+            gt
+        };
+        match &self.factor {
+            Factor::Blocks(lus) => blocks
+                .iter()
+                .map(|(b, g)| {
+                    let y = lus[*b].solve(&masked(*b, g)).unwrap_or_else(|| Matrix6x3::from_element(f64::NAN));
+                    (*b, y)
+                })
+                .collect(),
+            Factor::Dense(lu) => {
+                let mut rhs = DMatrix::zeros(6 * self.n, 3);
+                for (b, g) in blocks {
+                    rhs.fixed_view_mut::<6, 3>(6 * b, 0).add_assign(&masked(*b, g));
+                }
+                if !lu.solve_mut(&mut rhs) {
+                    rhs.fill(f64::NAN);
+                }
+                (0..self.n)
+                    .filter(|b| self.mask[6 * b..6 * b + 6].iter().any(|&m| m))
+                    .map(|b| (b, rhs.fixed_view::<6, 3>(6 * b, 0).into_owned()))
+                    .collect()
+            }
+        }
+    }
+}
+
+use std::ops::AddAssign;

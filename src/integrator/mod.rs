@@ -1,0 +1,10 @@
+//! How the model is integrated: the Moreau–Jean θ-scheme (velocity level, impulses, Newton
+//! impact law), its parameters, and the time loop with per-step diagnostics.
+
+pub mod iteration_matrix;
+pub mod moreau_jean;
+pub mod params;
+pub mod simulation;
+
+pub use params::{IntegrationParameters, Scheme};
+pub use simulation::{RunStats, SimError, Simulation, StepReport};

@@ -1,0 +1,169 @@
+//! One velocity-level step of the Moreau–Jean θ-scheme (`moreau_jean.md` §2):
+//!
+//! M (v₁ − v₀) − h[θ F(t₁, q₁, v₁) + (1 − θ) F(t₀, q₀, v₀)] = Σ_α G_αᵀ P_α,
+//! q₁ = q₀ ⊕ h v_θ, with the active contacts' impulses from FC3D on the shifted local
+//! velocity U_N,₁ + e U_N,₀ (Newton impact law). A Newton loop handles nonlinear forces;
+//! the contact Jacobians are frozen at q₀.
+
+use super::iteration_matrix::IterationMatrix;
+use super::params::IntegrationParameters;
+use crate::mechanics::force::Twist;
+use crate::mechanics::{ContactPoint, Model, Pose};
+use crate::solver::{solve_fc3d, Fc3d, SolverStatus};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6x3, Vector3};
+
+/// Result of the velocity step.
+#[derive(Clone, Debug)]
+pub struct VelocityStep {
+    pub v: DVector<f64>,
+    /// Impulse (P_N, P_T1, P_T2) of each active contact, in its local frame.
+    pub impulses: Vec<Vector3<f64>>,
+    pub newton_iterations: usize,
+    pub newton_converged: bool,
+    /// Status of the last FC3D solve (the one whose impulses are applied).
+    pub solver: SolverStatus,
+}
+
+/// Poses at the end of the step: q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁).
+pub fn advance_poses(poses: &[Pose], v0: &DVector<f64>, v1: &DVector<f64>, h: f64, theta: f64) -> Vec<Pose> {
+    poses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let a = v0.fixed_rows::<6>(6 * i);
+            let b = v1.fixed_rows::<6>(6 * i);
+            let delta: Twist = (a * (1.0 - theta) + b * theta) * h;
+            p.advanced(&delta)
+        })
+        .collect()
+}
+
+fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>)> {
+    let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
+    let mut out = Vec::with_capacity(2);
+    if let Some(b) = c.body1.filter(|&b| moving(b)) {
+        out.push((b, c.g1));
+    }
+    if let Some(b) = c.body2.filter(|&b| moving(b)) {
+        out.push((b, c.g2));
+    }
+    out
+}
+
+/// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
+/// warm-started from `warm` (one impulse per active contact).
+pub fn velocity_step(
+    model: &Model,
+    params: &IntegrationParameters,
+    t: f64,
+    poses: &[Pose],
+    v0: &DVector<f64>,
+    active: &[&ContactPoint],
+    warm: &[Vector3<f64>],
+) -> VelocityStep {
+    let (h, theta) = (params.h, params.theta);
+    let ndof = v0.len();
+    let mask = model.dof_mask();
+    let mut f0 = DVector::zeros(ndof);
+    model.wrench(t, poses, v0, &mut f0);
+    let mut mv = DVector::zeros(ndof);
+    model.mass_times(v0, &mut mv);
+    let momentum_scale = mv.norm() + h * f0.norm();
+
+    let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, &mask)).collect();
+    let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
+    // Newton impact law: the shift e·U_N,k on the normal rows
+    let shift: Vec<f64> = active.iter().map(|c| c.e * c.local_velocity(v0.as_slice()).x).collect();
+    let mut r = DVector::zeros(3 * active.len());
+    for (i, p) in warm.iter().enumerate() {
+        r.fixed_rows_mut::<3>(3 * i).copy_from(p);
+    }
+
+    let mut v = v0.clone();
+    let mut f1 = DVector::zeros(ndof);
+    let mut resid = DVector::zeros(ndof);
+    let mut status = SolverStatus {
+        converged: true,
+        ..Default::default()
+    };
+    let mut converged = false;
+    let mut iterations = 0;
+    for it in 0..=params.newton_max_iterations {
+        let poses1 = advance_poses(poses, v0, &v, h, theta);
+        model.wrench(t + h, &poses1, &v, &mut f1);
+        // R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀
+        model.mass_times(&(&v - v0), &mut resid);
+        resid.axpy(-h * theta, &f1, 1.0);
+        resid.axpy(-h * (1.0 - theta), &f0, 1.0);
+        if it > 0 {
+            // converged when R(v) = Gᵀ P to the tolerance
+            let mut res = resid.clone();
+            for (c, blk) in blocks.iter().enumerate() {
+                let p = r.fixed_rows::<3>(3 * c);
+                for (b, g) in blk {
+                    let gp = g.transpose() * p;
+                    let mut seg = res.fixed_rows_mut::<6>(6 * b);
+                    seg -= gp;
+                }
+            }
+            for (k, &m) in mask.iter().enumerate() {
+                if !m {
+                    res[k] = 0.0;
+                }
+            }
+            if res.norm() <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res.norm() == 0.0 {
+                converged = true;
+                break;
+            }
+            if it == params.newton_max_iterations {
+                break;
+            }
+        }
+        iterations += 1;
+        let w = IterationMatrix::assemble(model, t + h, &poses1, &v, h, theta);
+        let v_free = &v - w.solve(&resid);
+        if active.is_empty() {
+            v = v_free;
+            continue;
+        }
+        let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> = blocks.iter().map(|b| w.solve_contact(b)).collect();
+        let n = active.len();
+        let mut dmat = DMatrix::zeros(3 * n, 3 * n);
+        let mut q = DVector::zeros(3 * n);
+        for (c, bc) in blocks.iter().enumerate() {
+            let mut qc = Vector3::zeros();
+            for (b, g) in bc {
+                qc += g * v_free.fixed_rows::<6>(6 * b);
+            }
+            qc.x += shift[c];
+            q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
+            for (d, yd) in ys.iter().enumerate() {
+                let mut blk = Matrix3::zeros();
+                for (b, g) in bc {
+                    for (b2, y) in yd {
+                        if b == b2 {
+                            blk += g * y;
+                        }
+                    }
+                }
+                dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
+            }
+        }
+        status = solve_fc3d(&Fc3d { w: &dmat, q: &q, mu: &mu }, &mut r, &params.solver);
+        v = v_free;
+        for (c, yc) in ys.iter().enumerate() {
+            let p = r.fixed_rows::<3>(3 * c);
+            for (b, y) in yc {
+                let mut seg = v.fixed_rows_mut::<6>(6 * b);
+                seg += y * p;
+            }
+        }
+    }
+    VelocityStep {
+        v,
+        impulses: (0..active.len()).map(|c| r.fixed_rows::<3>(3 * c).into_owned()).collect(),
+        newton_iterations: iterations,
+        newton_converged: converged,
+        solver: status,
+    }
+}

@@ -1,0 +1,82 @@
+//! Integration parameters with documented defaults (never magic numbers in the loop).
+
+use crate::solver::NsgsOptions;
+
+/// Which time-stepping scheme runs. All share one code path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Scheme {
+    /// Plain Moreau–Jean: velocity-level contact with the γ-forecast activation
+    /// `g + γ h u_N ≤ 0`. Fast; may penetrate by O(h·u_N).
+    #[default]
+    MoreauJean,
+}
+
+impl Scheme {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Scheme::MoreauJean => "moreau-jean",
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct IntegrationParameters {
+    /// Time step h (s). Default 1e-4 s, the Siconos mechanisms toolbox default.
+    pub h: f64,
+    /// θ of the θ-rule on the smooth forces, in [1/2, 1]. Default 1/2 (trapezoidal: no
+    /// numerical dissipation; conserves energy with e = 1).
+    pub theta: f64,
+    /// γ of the activation forecast `g + γ h u_N ≤ 0`. Default 1/2.
+    pub gamma: f64,
+    pub scheme: Scheme,
+    /// FC3D solver tolerance (relative natural-map error) and sweep limit.
+    /// Defaults 1e-12 and 1000.
+    pub solver: NsgsOptions,
+    /// Newton loop on the smooth forces: relative residual tolerance (default 1e-10) and
+    /// iteration limit (default 15), as in the Siconos mechanisms toolbox.
+    pub newton_tolerance: f64,
+    pub newton_max_iterations: usize,
+}
+
+impl Default for IntegrationParameters {
+    fn default() -> Self {
+        IntegrationParameters {
+            h: 1e-4,
+            theta: 0.5,
+            gamma: 0.5,
+            scheme: Scheme::MoreauJean,
+            solver: NsgsOptions::default(),
+            newton_tolerance: 1e-10,
+            newton_max_iterations: 15,
+        }
+    }
+}
+
+impl IntegrationParameters {
+    /// Checks every value; the error names the offending field.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let positive = |name: &'static str, x: f64| {
+            if x.is_finite() && x > 0.0 {
+                Ok(())
+            } else {
+                Err((name, format!("must be a positive number, got {x}")))
+            }
+        };
+        positive("h", self.h)?;
+        if !(0.5..=1.0).contains(&self.theta) {
+            return Err(("theta", format!("must be in [0.5, 1], got {}", self.theta)));
+        }
+        if !(0.0..=1.0).contains(&self.gamma) {
+            return Err(("gamma", format!("must be in [0, 1], got {}", self.gamma)));
+        }
+        positive("solver.tolerance", self.solver.tolerance)?;
+        positive("newton.tolerance", self.newton_tolerance)?;
+        if self.solver.max_sweeps == 0 {
+            return Err(("solver.max_iterations", "must be at least 1".into()));
+        }
+        if self.newton_max_iterations == 0 {
+            return Err(("newton.max_iterations", "must be at least 1".into()));
+        }
+        Ok(())
+    }
+}

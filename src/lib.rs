@@ -1,0 +1,14 @@
+//! mc-study: Monte-Carlo tolerance studies of mechanisms with clearances, on a nonsmooth
+//! multibody integrator of the Moreau–Jean family (Newton–Euler bodies with unit
+//! quaternions, unilateral frictional contact with impacts as FC3D).
+//!
+//! Layout (see DESIGN.md §3): [`math`] rotation helpers, [`mechanics`] what the system is,
+//! [`integrator`] how it is integrated, [`solver`] pure numerics, [`scene`] the YAML scene
+//! format, [`trajectory`] recorded outputs.
+
+pub mod integrator;
+pub mod math;
+pub mod mechanics;
+pub mod scene;
+pub mod solver;
+pub mod trajectory;

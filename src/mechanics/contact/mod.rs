@@ -1,0 +1,206 @@
+//! Unilateral frictional contacts: a pair of primitives on two bodies expands into a fixed
+//! list of candidate points. Each candidate gives its gap, local frame (n, t1, t2) and the
+//! 3×6 Jacobian blocks G₁, G₂ mapping the body twists to the local relative velocity
+//! (`rigid_bodies.md` §5: the lever arm of both bodies is taken at the point on body 1).
+
+pub mod primitives;
+
+pub use primitives::{ContactGeometry, Primitive};
+
+use super::body::Pose;
+use super::model::BodyRef;
+use crate::math::{skew, tangent_basis};
+use nalgebra::{Matrix3, Matrix3x6, Vector3};
+
+/// Contact between a primitive on body 1 and one on body 2 (`None` = the ground frame).
+/// The normal points from body 2 towards body 1; the gap is positive when separated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactPair {
+    pub name: String,
+    pub body1: BodyRef,
+    pub shape1: Primitive,
+    pub body2: BodyRef,
+    pub shape2: Primitive,
+    /// Coulomb friction coefficient μ ≥ 0.
+    pub mu: f64,
+    /// Newton restitution coefficient e ∈ [0, 1].
+    pub e: f64,
+}
+
+/// One evaluated candidate contact point.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactPoint {
+    pub geometry: ContactGeometry,
+    /// Rows n, t1, t2.
+    pub frame: Matrix3<f64>,
+    pub body1: BodyRef,
+    pub body2: BodyRef,
+    pub g1: Matrix3x6<f64>,
+    pub g2: Matrix3x6<f64>,
+    pub mu: f64,
+    pub e: f64,
+}
+
+impl ContactPair {
+    /// Builds a pair, ordering the shapes so that body 2 carries the plane (or the second
+    /// sphere). Returns an error message for an unsupported combination.
+    pub fn new(
+        name: impl Into<String>,
+        body1: BodyRef,
+        shape1: Primitive,
+        body2: BodyRef,
+        shape2: Primitive,
+        mu: f64,
+        e: f64,
+    ) -> Result<Self, String> {
+        let (body1, shape1, body2, shape2) = if matches!(shape1, Primitive::Plane { .. })
+            && !matches!(shape2, Primitive::Plane { .. })
+        {
+            (body2, shape2, body1, shape1)
+        } else {
+            (body1, shape1, body2, shape2)
+        };
+        let supported = matches!(
+            (&shape1, &shape2),
+            (Primitive::Sphere { .. }, Primitive::Sphere { .. })
+                | (
+                    Primitive::Sphere { .. }
+                        | Primitive::Box { .. }
+                        | Primitive::Cylinder { .. }
+                        | Primitive::Capsule { .. }
+                        | Primitive::Point { .. },
+                    Primitive::Plane { .. }
+                )
+        );
+        if !supported {
+            return Err(format!(
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere against sphere)",
+                shape1.kind(),
+                shape2.kind()
+            ));
+        }
+        if body1 == body2 {
+            return Err("a contact needs two different bodies".into());
+        }
+        Ok(ContactPair {
+            name: name.into(),
+            body1,
+            shape1,
+            body2,
+            shape2,
+            mu,
+            e,
+        })
+    }
+
+    /// Number of candidate points this pair expands into.
+    pub fn candidates(&self) -> usize {
+        self.shape1.candidates_against(&self.shape2)
+    }
+
+    /// Geometry and Jacobian of candidate `k` at the given body poses.
+    pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
+        let p1 = self.body1.map_or(Pose::identity(), |i| poses[i]);
+        let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
+        let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
+        let n = geometry.normal;
+        let (t1, t2) = tangent_basis(&n);
+        let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
+        let jac = |pose: &Pose, sign: f64| -> Matrix3x6<f64> {
+            let mut g = Matrix3x6::zeros();
+            g.fixed_columns_mut::<3>(0).copy_from(&(frame * sign));
+            let lever = skew(&(pose.x - geometry.point1)) * pose.p.to_rotation_matrix().matrix();
+            g.fixed_columns_mut::<3>(3).copy_from(&(frame * lever * sign));
+            g
+        };
+        ContactPoint {
+            geometry,
+            frame,
+            body1: self.body1,
+            body2: self.body2,
+            g1: jac(&p1, 1.0),
+            g2: jac(&p2, -1.0),
+            mu: self.mu,
+            e: self.e,
+        }
+    }
+}
+
+impl ContactPoint {
+    /// Local relative velocity (u_N, u_T1, u_T2) for the body twists `v` (6 per body).
+    pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
+        let mut u = Vector3::zeros();
+        if let Some(i) = self.body1 {
+            u += self.g1 * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]);
+        }
+        if let Some(i) = self.body2 {
+            u += self.g2 * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]);
+        }
+        u
+    }
+
+    pub fn gap(&self) -> f64 {
+        self.geometry.gap
+    }
+
+    /// Contact normal (inertial), from body 2 towards body 1.
+    pub fn normal(&self) -> Vector3<f64> {
+        self.geometry.normal
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use nalgebra::{UnitQuaternion, Vector6};
+
+    /// The Jacobian maps twists to the relative velocity of the contact point on body 1
+    /// with respect to the material point of body 2 at the same place, by finite
+    /// differences of the contact point positions.
+    #[test]
+    fn jacobian_matches_finite_differences_of_material_points() {
+        let pair = ContactPair::new(
+            "c",
+            Some(0),
+            Primitive::Sphere {
+                center: Vector3::new(0.01, 0.02, 0.0),
+                radius: 0.1,
+            },
+            Some(1),
+            Primitive::Sphere {
+                center: Vector3::zeros(),
+                radius: 0.2,
+            },
+            0.3,
+            0.5,
+        )
+        .unwrap();
+        let poses = [
+            Pose {
+                x: Vector3::new(0.1, 0.25, 0.2),
+                p: UnitQuaternion::from_euler_angles(0.2, 0.1, -0.4),
+            },
+            Pose {
+                x: Vector3::new(-0.1, 0.0, 0.05),
+                p: UnitQuaternion::from_euler_angles(-0.3, 0.5, 0.9),
+            },
+        ];
+        let cp = pair.evaluate(0, &poses);
+        let v = [0.3, -0.2, 0.1, 1.0, -2.0, 0.5, -0.4, 0.2, 0.6, 0.7, 0.1, -1.3];
+        let u = cp.local_velocity(&v);
+        // material points of each body at the current contact point 1
+        let x = cp.geometry.point1;
+        let loc: Vec<Vector3<f64>> = poses.iter().map(|p| p.p.inverse_transform_vector(&(x - p.x))).collect();
+        let eps = 1e-7;
+        let moved: Vec<Vector3<f64>> = (0..2)
+            .map(|b| {
+                let tw = Vector6::from_column_slice(&v[6 * b..6 * b + 6]) * eps;
+                poses[b].advanced(&tw).point(&loc[b])
+            })
+            .collect();
+        let rel = (moved[0] - moved[1]) / eps;
+        assert_relative_eq!(u, cp.frame * rel, epsilon = 1e-6);
+        assert_relative_eq!(cp.gap(), (poses[0].point(&Vector3::new(0.01, 0.02, 0.0)) - poses[1].x).norm() - 0.3, epsilon = 1e-15);
+    }
+}

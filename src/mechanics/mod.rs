@@ -1,0 +1,11 @@
+//! What the system is: bodies, applied forces, contacts and the assembled model.
+
+pub mod body;
+pub mod contact;
+pub mod force;
+pub mod model;
+
+pub use body::{Motion, Pose, RigidBody, Shape};
+pub use contact::{ContactGeometry, ContactPair, ContactPoint, Primitive};
+pub use force::{ExternalLoad, Force, PointSpring, Profile, TorsionalSpring};
+pub use model::{BodyRef, Model};

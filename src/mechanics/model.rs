@@ -1,0 +1,138 @@
+//! The model: bodies, gravity, force elements and contact pairs. Immutable during a
+//! simulation; the evolving state lives in [`State`], so that one model can be run many
+//! times (a Monte-Carlo sample is "model + initial state → outputs").
+
+use super::body::{Motion, Pose, RigidBody};
+use super::contact::ContactPair;
+use super::force::{Force, Twist};
+use nalgebra::{DVector, Vector3};
+
+/// A body index, or `None` for the ground (the fixed inertial frame).
+pub type BodyRef = Option<usize>;
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Model {
+    pub bodies: Vec<RigidBody>,
+    pub gravity: Vector3<f64>,
+    pub forces: Vec<Force>,
+    pub contacts: Vec<ContactPair>,
+}
+
+/// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
+/// Ω body frame) at time `t`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    pub t: f64,
+    pub poses: Vec<Pose>,
+    pub v: DVector<f64>,
+}
+
+impl State {
+    pub fn twist(&self, i: usize) -> Twist {
+        Twist::from_column_slice(&self.v.as_slice()[6 * i..6 * i + 6])
+    }
+
+    pub fn twists(&self) -> Vec<Twist> {
+        twists_of(&self.v)
+    }
+}
+
+pub(crate) fn twists_of(v: &DVector<f64>) -> Vec<Twist> {
+    v.as_slice().chunks_exact(6).map(Twist::from_column_slice).collect()
+}
+
+impl Model {
+    pub fn body_index(&self, name: &str) -> Option<usize> {
+        self.bodies.iter().position(|b| b.name == name)
+    }
+
+    pub fn dofs(&self) -> usize {
+        6 * self.bodies.len()
+    }
+
+    pub fn initial_state(&self) -> State {
+        let mut v = DVector::zeros(self.dofs());
+        for (i, b) in self.bodies.iter().enumerate() {
+            let mask = b.dof_mask();
+            for k in 0..3 {
+                if mask[k] {
+                    v[6 * i + k] = b.velocity[k];
+                }
+                if mask[3 + k] {
+                    v[6 * i + 3 + k] = b.angular_velocity[k];
+                }
+            }
+        }
+        State {
+            t: 0.0,
+            poses: self.bodies.iter().map(|b| b.pose).collect(),
+            v,
+        }
+    }
+
+    /// Per-dof flag: integrated (true) or held fixed (false).
+    pub fn dof_mask(&self) -> Vec<bool> {
+        self.bodies.iter().flat_map(|b| b.dof_mask()).collect()
+    }
+
+    /// Generalized mass times `v` (diag(m I, I_body) per body).
+    pub fn mass_times(&self, v: &DVector<f64>, out: &mut DVector<f64>) {
+        for (i, b) in self.bodies.iter().enumerate() {
+            let o = 6 * i;
+            for k in 0..3 {
+                out[o + k] = b.mass * v[o + k];
+            }
+            let w = v.fixed_rows::<3>(o + 3);
+            out.fixed_rows_mut::<3>(o + 3).copy_from(&(b.inertia * w));
+        }
+    }
+
+    /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ and the force elements.
+    /// Entries of held degrees of freedom are zero.
+    pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
+        let twists = twists_of(v);
+        let mut w = vec![Twist::zeros(); self.bodies.len()];
+        for (i, b) in self.bodies.iter().enumerate() {
+            if b.motion == Motion::Fixed {
+                continue;
+            }
+            w[i].fixed_rows_mut::<3>(0).copy_from(&(self.gravity * b.mass));
+            let om = twists[i].fixed_rows::<3>(3).into_owned();
+            w[i].fixed_rows_mut::<3>(3).copy_from(&(-om.cross(&(b.inertia * om))));
+        }
+        for f in &self.forces {
+            f.apply(t, poses, &twists, &mut w);
+        }
+        for (i, b) in self.bodies.iter().enumerate() {
+            let mask = b.dof_mask();
+            for k in 0..6 {
+                out[6 * i + k] = if mask[k] { w[i][k] } else { 0.0 };
+            }
+        }
+    }
+
+    /// Total mechanical energy: kinetic, gravity and the potentials of the force elements.
+    pub fn energy(&self, state: &State) -> f64 {
+        let mut e = 0.0;
+        for (i, b) in self.bodies.iter().enumerate() {
+            if b.motion == Motion::Fixed {
+                continue;
+            }
+            let tw = state.twist(i);
+            e += b.kinetic_energy(&tw.fixed_rows::<3>(0).into_owned(), &tw.fixed_rows::<3>(3).into_owned());
+            if b.motion == Motion::Free {
+                e -= b.mass * self.gravity.dot(&state.poses[i].x);
+            }
+        }
+        e + self.forces.iter().map(|f| f.potential(&state.poses)).sum::<f64>()
+    }
+
+    /// `(pair, candidate)` for every candidate contact point, in a fixed order.
+    pub fn contact_candidates(&self) -> Vec<(usize, usize)> {
+        self.contacts
+            .iter()
+            .enumerate()
+            .flat_map(|(i, c)| (0..c.candidates()).map(move |k| (i, k)))
+            .collect()
+    }
+}

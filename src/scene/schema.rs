@@ -1,0 +1,190 @@
+//! The scene YAML schema, as serde structs. Every scalar the user writes is kept with its
+//! source location (`Spanned`) so that validation errors can name the line.
+
+use super::units::Quantity;
+use serde::Deserialize;
+use serde_saphyr::Spanned;
+
+pub type Q = Spanned<Quantity>;
+pub type Vector = Spanned<Vec<Quantity>>;
+pub type Name = Spanned<String>;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    pub name: Option<String>,
+    pub description: Option<String>,
+    /// Simulated time span.
+    pub duration: Q,
+    /// Default (0, 0, −9.81) m/s².
+    pub gravity: Option<Vector>,
+    #[serde(default)]
+    pub integrator: IntegratorSpec,
+    pub bodies: Vec<BodySpec>,
+    #[serde(default)]
+    pub contacts: Vec<ContactSpec>,
+    #[serde(default)]
+    pub forces: Vec<ForceSpec>,
+    #[serde(default)]
+    pub record: RecordSpec,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    pub h: Option<Q>,
+    pub theta: Option<Q>,
+    pub gamma: Option<Q>,
+    pub scheme: Option<Name>,
+    pub solver: Option<ToleranceSpec>,
+    pub newton: Option<ToleranceSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToleranceSpec {
+    pub tolerance: Option<Q>,
+    pub max_iterations: Option<Q>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordSpec {
+    /// Record every n-th step (default 1).
+    pub every: Option<Q>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub name: Name,
+    pub mass: Option<Q>,
+    /// Principal moments [Ixx, Iyy, Izz] or the 9 entries of the tensor, row by row.
+    pub inertia: Option<Vector>,
+    /// Solid whose inertia is derived from the mass when `inertia` is absent.
+    pub shape: Option<Spanned<ShapeSpec>>,
+    pub position: Option<Vector>,
+    pub orientation: Option<Spanned<OrientationSpec>>,
+    pub velocity: Option<Vector>,
+    /// Body frame.
+    pub angular_velocity: Option<Vector>,
+    /// `free` (default), `pinned` (reference point fixed) or `fixed`.
+    pub motion: Option<Name>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+pub enum ShapeSpec {
+    Box { size: Vector },
+    Cylinder { radius: Q, length: Q },
+    Sphere { radius: Q },
+}
+
+/// Exactly one of: `axis` + `angle`, `quaternion` [w, x, y, z], `rotation_vector`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrientationSpec {
+    pub axis: Option<Vector>,
+    pub angle: Option<Q>,
+    pub quaternion: Option<Vector>,
+    pub rotation_vector: Option<Vector>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    pub name: Option<String>,
+    pub body: Name,
+    pub shape: Spanned<PrimitiveSpec>,
+    /// Other body (default `ground`).
+    pub against: Option<Name>,
+    pub against_shape: Spanned<PrimitiveSpec>,
+    /// Coulomb coefficient (default 0).
+    pub mu: Option<Q>,
+    /// Newton restitution coefficient (default 0).
+    pub e: Option<Q>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+pub enum PrimitiveSpec {
+    Sphere {
+        radius: Q,
+        center: Option<Vector>,
+    },
+    Plane {
+        point: Option<Vector>,
+        normal: Vector,
+    },
+    Box {
+        size: Vector,
+        center: Option<Vector>,
+        orientation: Option<Spanned<OrientationSpec>>,
+    },
+    Cylinder {
+        radius: Q,
+        length: Q,
+        axis: Option<Vector>,
+        center: Option<Vector>,
+    },
+    Capsule {
+        radius: Q,
+        length: Q,
+        axis: Option<Vector>,
+        center: Option<Vector>,
+    },
+    Point {
+        position: Vector,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum ForceSpec {
+    Spring(SpringSpec),
+    TorsionalSpring(TorsionalSpec),
+    Load(LoadSpec),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    pub body_a: Name,
+    pub point_a: Option<Vector>,
+    pub body_b: Name,
+    pub point_b: Option<Vector>,
+    pub stiffness: Q,
+    pub damping: Option<Q>,
+    /// Default: the initial distance.
+    pub rest_length: Option<Q>,
+    pub preload: Option<Q>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TorsionalSpec {
+    pub body_a: Name,
+    pub body_b: Name,
+    /// Axis in body a's frame.
+    pub axis: Vector,
+    pub stiffness: Q,
+    pub damping: Option<Q>,
+    pub preload: Option<Q>,
+    pub rest_angle: Option<Q>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    pub body: Name,
+    /// Point of application, body frame (default: the reference point).
+    pub point: Option<Vector>,
+    /// Constant force.
+    pub force: Option<Vector>,
+    /// Piecewise-linear force: rows [t, fx, fy, fz].
+    pub force_table: Option<Spanned<Vec<Vec<Quantity>>>>,
+    pub torque: Option<Vector>,
+    pub torque_table: Option<Spanned<Vec<Vec<Quantity>>>>,
+    /// `world` (default) or `body`.
+    pub frame: Option<Name>,
+}

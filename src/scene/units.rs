@@ -1,0 +1,221 @@
+//! Quantities in YAML: a plain number is SI; a string is a number followed by a unit
+//! expression ("0.07 mm", "13 N", "2 ms", "9.81 m/s^2", "100 N/mm", "30 deg",
+//! "1e-6 kg*m^2"). The unit's dimension is checked against the field's.
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::Deserialize;
+use std::fmt;
+
+/// Exponents of (length, mass, time). Angles are dimensionless (radians).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Dim(pub i8, pub i8, pub i8);
+
+impl Dim {
+    pub const NONE: Dim = Dim(0, 0, 0);
+    pub const LENGTH: Dim = Dim(1, 0, 0);
+    pub const MASS: Dim = Dim(0, 1, 0);
+    pub const TIME: Dim = Dim(0, 0, 1);
+    pub const VELOCITY: Dim = Dim(1, 0, -1);
+    pub const ACCELERATION: Dim = Dim(1, 0, -2);
+    pub const ANGULAR_VELOCITY: Dim = Dim(0, 0, -1);
+    pub const FORCE: Dim = Dim(1, 1, -2);
+    pub const TORQUE: Dim = Dim(2, 1, -2);
+    pub const STIFFNESS: Dim = Dim(0, 1, -2);
+    pub const DAMPING: Dim = Dim(0, 1, -1);
+    pub const ROTATIONAL_DAMPING: Dim = Dim(2, 1, -1);
+    pub const INERTIA: Dim = Dim(2, 1, 0);
+
+    fn mul(self, o: Dim, exp: i8) -> Dim {
+        Dim(self.0 + o.0 * exp, self.1 + o.1 * exp, self.2 + o.2 * exp)
+    }
+
+    /// Human name of the dimension, for error messages.
+    pub fn describe(self) -> String {
+        let named = [
+            (Dim::NONE, "dimensionless (or an angle)"),
+            (Dim::LENGTH, "a length (e.g. mm)"),
+            (Dim::MASS, "a mass (e.g. kg)"),
+            (Dim::TIME, "a time (e.g. ms)"),
+            (Dim::VELOCITY, "a velocity (e.g. m/s)"),
+            (Dim::ACCELERATION, "an acceleration (e.g. m/s^2)"),
+            (Dim::ANGULAR_VELOCITY, "an angular velocity (e.g. rad/s)"),
+            (Dim::FORCE, "a force (e.g. N)"),
+            (Dim::TORQUE, "a torque (e.g. N*m)"),
+            (Dim::STIFFNESS, "a stiffness (e.g. N/m)"),
+            (Dim::DAMPING, "a damping (e.g. N*s/m)"),
+            (Dim::ROTATIONAL_DAMPING, "a rotational damping (e.g. N*m*s)"),
+            (Dim::INERTIA, "an inertia (e.g. kg*m^2)"),
+        ];
+        named
+            .iter()
+            .find(|(d, _)| *d == self)
+            .map(|(_, n)| n.to_string())
+            .unwrap_or_else(|| format!("m^{} kg^{} s^{}", self.0, self.1, self.2))
+    }
+}
+
+/// A parsed quantity: its SI value and, when written with a unit, the unit's dimension.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quantity {
+    pub si: f64,
+    pub dim: Option<Dim>,
+}
+
+impl Quantity {
+    /// The SI value if the dimension matches `expected` (plain numbers always match).
+    pub fn value(&self, expected: Dim) -> Result<f64, String> {
+        match self.dim {
+            Some(d) if d != expected => Err(format!(
+                "has a unit of {} but {} is expected",
+                d.describe(),
+                expected.describe()
+            )),
+            _ => Ok(self.si),
+        }
+    }
+}
+
+/// (decimal exponent, other factor, dimension) of a unit: decimal prefixes are applied to
+/// the number's text so that "0.07 mm" is exactly the double nearest 7e-5.
+fn unit(name: &str) -> Option<(i32, f64, Dim)> {
+    use std::f64::consts::PI;
+    let l = Dim::LENGTH;
+    let m = Dim::MASS;
+    let t = Dim::TIME;
+    Some(match name {
+        "m" => (0, 1.0, l),
+        "km" => (3, 1.0, l),
+        "cm" => (-2, 1.0, l),
+        "mm" => (-3, 1.0, l),
+        "um" | "µm" | "μm" => (-6, 1.0, l),
+        "nm" => (-9, 1.0, l),
+        "kg" => (0, 1.0, m),
+        "g" => (-3, 1.0, m),
+        "mg" => (-6, 1.0, m),
+        "s" => (0, 1.0, t),
+        "ms" => (-3, 1.0, t),
+        "us" | "µs" | "μs" => (-6, 1.0, t),
+        "min" => (0, 60.0, t),
+        "N" => (0, 1.0, Dim::FORCE),
+        "kN" => (3, 1.0, Dim::FORCE),
+        "mN" => (-3, 1.0, Dim::FORCE),
+        "J" => (0, 1.0, Dim::TORQUE),
+        "rad" => (0, 1.0, Dim::NONE),
+        "mrad" => (-3, 1.0, Dim::NONE),
+        "deg" | "°" => (0, PI / 180.0, Dim::NONE),
+        "rpm" => (0, 2.0 * PI / 60.0, Dim::ANGULAR_VELOCITY),
+        "Hz" => (0, 1.0, Dim::ANGULAR_VELOCITY),
+        _ => return None,
+    })
+}
+
+/// Parses "number unit-expression"; the unit expression is factors joined by `*`, `·` or
+/// spaces, with at most one `/` (everything after it is in the denominator) and `^n`
+/// exponents.
+pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
+    let s = text.trim();
+    let split = s
+        .char_indices()
+        .find(|&(i, c)| {
+            !(c.is_ascii_digit() || c == '.' || c == '+' || c == '-' || ((c == 'e' || c == 'E') && i > 0 && s[i + 1..].starts_with(|d: char| d.is_ascii_digit() || d == '-' || d == '+')))
+        })
+        .map_or(s.len(), |(i, _)| i);
+    let (num, rest) = s.split_at(split);
+    let value: f64 = num
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number with an optional unit (e.g. \"0.07 mm\")"))?;
+    let rest = rest.trim();
+    if rest.is_empty() {
+        return Ok(Quantity { si: value, dim: None });
+    }
+    let (numer, denom) = match rest.split_once('/') {
+        Some((a, b)) => (a, Some(b)),
+        None => (rest, None),
+    };
+    let mut exp10 = 0i32;
+    let mut factor = 1.0;
+    let mut dim = Dim::NONE;
+    for (part, sign) in [(Some(numer), 1i8), (denom, -1i8)] {
+        let Some(part) = part else { continue };
+        for tok in part.split(['*', '·', ' ']).filter(|t| !t.is_empty()) {
+            let (name, exp) = match tok.split_once('^') {
+                Some((n, e)) => (n, e.parse::<i8>().map_err(|_| format!("bad exponent in unit `{tok}` of `{text}`"))?),
+                None => (tok, 1),
+            };
+            let (e10, f, d) = unit(name).ok_or_else(|| {
+                format!("unknown unit `{name}` in `{text}` (known: m mm um cm km kg g s ms us min N kN mN J rad deg rpm Hz, combined with * / ^)")
+            })?;
+            exp10 += e10 * i32::from(exp * sign);
+            factor *= f.powi(i32::from(exp * sign));
+            dim = dim.mul(d, exp * sign);
+        }
+    }
+    let (mantissa, e0) = match num.split_once(['e', 'E']) {
+        Some((m, e)) => (m, e.parse::<i32>().unwrap_or(0)),
+        None => (num, 0),
+    };
+    let scaled: f64 = format!("{mantissa}e{}", e0 + exp10).parse().unwrap_or(value * 10f64.powi(exp10));
+    Ok(Quantity {
+        si: scaled * factor,
+        dim: Some(dim),
+    })
+}
+
+impl<'de> Deserialize<'de> for Quantity {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Quantity;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number (SI) or a string with a unit such as \"0.07 mm\"")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Quantity, E> {
+                Ok(Quantity { si: v, dim: None })
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Quantity, E> {
+                Ok(Quantity { si: v as f64, dim: None })
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Quantity, E> {
+                Ok(Quantity { si: v as f64, dim: None })
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Quantity, E> {
+                parse_quantity(v).map_err(E::custom)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_units_to_si() {
+        let q = |s: &str| parse_quantity(s).unwrap();
+        assert_eq!(q("0.07 mm").si, 0.07e-3);
+        assert_eq!(q("0.07 mm").dim, Some(Dim::LENGTH));
+        assert_eq!(q("2 ms").si, 2e-3);
+        assert_eq!(q("13 N").dim, Some(Dim::FORCE));
+        assert!((q("9.81 m/s^2").si - 9.81).abs() < 1e-15);
+        assert_eq!(q("9.81 m/s^2").dim, Some(Dim::ACCELERATION));
+        assert!((q("100 N/mm").si - 1e5).abs() < 1e-9);
+        assert_eq!(q("100 N/mm").dim, Some(Dim::STIFFNESS));
+        assert!((q("180 deg").si - std::f64::consts::PI).abs() < 1e-15);
+        assert_eq!(q("1e-6 kg*m^2").dim, Some(Dim::INERTIA));
+        assert_eq!(q("5 N m").dim, Some(Dim::TORQUE));
+        assert_eq!(q("-1.5e-3").si, -1.5e-3);
+        assert_eq!(q("1.5e-3 mm").si, 1.5e-6);
+        assert_eq!(q("2 N*s/m").dim, Some(Dim::DAMPING));
+        assert!((q("60 rpm").si - 2.0 * std::f64::consts::PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rejects_bad_units_and_wrong_dimensions() {
+        assert!(parse_quantity("5 furlongs").unwrap_err().contains("unknown unit `furlongs`"));
+        assert!(parse_quantity("abc").is_err());
+        let e = parse_quantity("5 ms").unwrap().value(Dim::LENGTH).unwrap_err();
+        assert!(e.contains("a time") && e.contains("a length"), "{e}");
+        assert_eq!(parse_quantity("5").unwrap().value(Dim::LENGTH), Ok(5.0));
+    }
+}

@@ -1,0 +1,11 @@
+//! Pure numerics: sees matrices and vectors only, never the model.
+//!
+//! `fc3d` states the 3D frictional contact problem FC3D(W, q, μ) and its natural-map
+//! error; `nsgs` solves it by nonsmooth Gauss–Seidel with a one-contact Alart–Curnier
+//! Newton method.
+
+pub mod fc3d;
+pub mod nsgs;
+
+pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};
+pub use nsgs::{solve_fc3d, NsgsOptions};

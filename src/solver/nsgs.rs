@@ -1,0 +1,203 @@
+//! Nonsmooth Gauss–Seidel for FC3D with a one-contact Alart–Curnier Newton method and a
+//! self-adaptive projection fallback (`contact_solvers.md` §3). Contacts are swept in index
+//! order, so results are deterministic; the caller passes the previous impulses as the
+//! warm start.
+
+use super::fc3d::{contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus};
+use nalgebra::{DVector, Matrix3, Vector3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NsgsOptions {
+    /// Relative natural-map error to reach.
+    pub tolerance: f64,
+    /// Maximum number of sweeps over the contacts.
+    pub max_sweeps: usize,
+}
+
+impl Default for NsgsOptions {
+    fn default() -> Self {
+        NsgsOptions {
+            tolerance: 1e-12,
+            max_sweeps: 1000,
+        }
+    }
+}
+
+/// Solves FC3D by NSGS. `r` holds the warm start on entry and the impulses on exit.
+pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverStatus {
+    let n = p.mu.len();
+    debug_assert_eq!(r.len(), 3 * n);
+    if n == 0 {
+        return SolverStatus {
+            converged: true,
+            iterations: 0,
+            residual: 0.0,
+        };
+    }
+    let blocks: Vec<Matrix3<f64>> = (0..n).map(|a| p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned()).collect();
+    let mut residual = f64::INFINITY;
+    for sweep in 1..=opts.max_sweeps {
+        for a in 0..n {
+            let o = 3 * a;
+            let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
+            // q_loc = q_a + Σ_{b≠a} W_ab r_b
+            let row = p.w.rows(o, 3) * &*r;
+            let qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]) + Vector3::new(row[0], row[1], row[2]) - blocks[a] * ra;
+            let sol = solve_one_contact(&blocks[a], &qloc, p.mu[a], &ra);
+            r[o] = sol.x;
+            r[o + 1] = sol.y;
+            r[o + 2] = sol.z;
+        }
+        residual = natural_map_error(p, r);
+        if residual <= opts.tolerance || !residual.is_finite() {
+            return SolverStatus {
+                converged: residual.is_finite(),
+                iterations: sweep,
+                residual,
+            };
+        }
+    }
+    SolverStatus {
+        converged: false,
+        iterations: opts.max_sweeps,
+        residual,
+    }
+}
+
+/// Exact solution of the one-contact problem u = W r + q, K* ∋ û ⟂ r ∈ K (to round-off),
+/// starting from `r0`. Tries the closed-form separation and sticking solutions first, then
+/// Alart–Curnier Newton for sliding, then the projection method if Newton stalls.
+pub fn solve_one_contact(w: &Matrix3<f64>, q: &Vector3<f64>, mu: f64, r0: &Vector3<f64>) -> Vector3<f64> {
+    // separation: r = 0 is a solution iff q_N ≥ 0
+    if q.x >= 0.0 {
+        return Vector3::zeros();
+    }
+    if mu == 0.0 {
+        return Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
+    }
+    // sticking: u = 0 with r inside the cone
+    if let Some(lu) = w.lu().try_inverse() {
+        let r = -(lu * q);
+        if r.x > 0.0 && (r.y * r.y + r.z * r.z).sqrt() <= mu * r.x {
+            return r;
+        }
+    }
+    // sliding: Alart–Curnier Newton from the warm start (or the normal-only guess)
+    let start = if r0.x > 0.0 { *r0 } else { Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0) };
+    let rho_n = 1.0 / w[(0, 0)];
+    let rho_t = 1.0 / w[(1, 1)].max(w[(2, 2)]);
+    let scale = start.norm().max(rho_n * q.norm());
+    if let Some(r) = alart_curnier_newton(w, q, mu, rho_n, rho_t, start, scale) {
+        return r;
+    }
+    projection_fallback(w, q, mu, start, scale)
+}
+
+/// Alart–Curnier function Φ(r) and one element of its generalized Jacobian.
+fn alart_curnier(
+    w: &Matrix3<f64>,
+    q: &Vector3<f64>,
+    mu: f64,
+    rho_n: f64,
+    rho_t: f64,
+    r: &Vector3<f64>,
+) -> (Vector3<f64>, Matrix3<f64>) {
+    let u = w * r + q;
+    let tau_n = r.x - rho_n * u.x;
+    if tau_n <= 0.0 {
+        return (*r, Matrix3::identity());
+    }
+    let mut phi = Vector3::zeros();
+    let mut jac = Matrix3::zeros();
+    phi.x = rho_n * u.x;
+    jac.row_mut(0).copy_from(&(w.row(0) * rho_n));
+    let tau_t = nalgebra::Vector2::new(r.y - rho_t * u.y, r.z - rho_t * u.z);
+    let s = mu * tau_n;
+    let nt = tau_t.norm();
+    if nt <= s {
+        phi.y = rho_t * u.y;
+        phi.z = rho_t * u.z;
+        jac.row_mut(1).copy_from(&(w.row(1) * rho_t));
+        jac.row_mut(2).copy_from(&(w.row(2) * rho_t));
+    } else {
+        let x = tau_t / nt;
+        phi.y = r.y - s * x.x;
+        phi.z = r.z - s * x.y;
+        // dτ_N/dr = e_N − ρ_N W_N ; dτ_T/dr = [0 I] − ρ_T W_T
+        let dtn = nalgebra::RowVector3::new(1.0, 0.0, 0.0) - w.row(0) * rho_n;
+        let mut dtt = nalgebra::Matrix2x3::new(0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        dtt -= w.fixed_rows::<2>(1) * rho_t;
+        let proj = (nalgebra::Matrix2::identity() - x * x.transpose()) * (s / nt);
+        let jt = nalgebra::Matrix2x3::new(0.0, 1.0, 0.0, 0.0, 0.0, 1.0) - x * dtn * mu - proj * dtt;
+        jac.fixed_rows_mut::<2>(1).copy_from(&jt);
+    }
+    (phi, jac)
+}
+
+fn alart_curnier_newton(
+    w: &Matrix3<f64>,
+    q: &Vector3<f64>,
+    mu: f64,
+    rho_n: f64,
+    rho_t: f64,
+    mut r: Vector3<f64>,
+    scale: f64,
+) -> Option<Vector3<f64>> {
+    let tol = 1e-15 * scale.max(f64::MIN_POSITIVE);
+    let (mut phi, mut jac) = alart_curnier(w, q, mu, rho_n, rho_t, &r);
+    for _ in 0..50 {
+        let f0 = phi.norm_squared();
+        if f0.sqrt() <= tol {
+            return Some(r);
+        }
+        let dr = jac.lu().solve(&(-phi))?;
+        // Armijo backtracking on ½‖Φ‖²
+        let mut t = 1.0;
+        loop {
+            let trial = r + dr * t;
+            let (p2, j2) = alart_curnier(w, q, mu, rho_n, rho_t, &trial);
+            if p2.norm_squared() <= (1.0 - 1e-4 * t) * f0 || t < 1e-12 {
+                r = trial;
+                phi = p2;
+                jac = j2;
+                break;
+            }
+            t *= 0.5;
+        }
+        if t < 1e-12 {
+            return None;
+        }
+    }
+    (phi.norm() <= 1e3 * tol).then_some(r)
+}
+
+/// Projection iterations r ← P_K(r − ρ û) with the self-adaptive step of Siconos'
+/// `fc3d_projection`: slow but always converges for a positive definite block.
+fn projection_fallback(w: &Matrix3<f64>, q: &Vector3<f64>, mu: f64, mut r: Vector3<f64>, scale: f64) -> Vector3<f64> {
+    let mut rho = contact_rho(w);
+    let tol = 1e-15 * scale.max(f64::MIN_POSITIVE);
+    for _ in 0..10_000 {
+        let u = w * r + q;
+        let ut = (u.y * u.y + u.z * u.z).sqrt();
+        let uhat = Vector3::new(u.x + mu * ut, u.y, u.z);
+        let mut next = project_on_cone(&(r - uhat * rho), mu);
+        // self-adaptive step: shrink until ρ‖Δu‖ ≤ 0.9 ‖Δr‖
+        for _ in 0..60 {
+            let dr = next - r;
+            let du = w * dr;
+            if rho * du.norm() <= 0.9 * dr.norm() {
+                if rho * du.norm() < 0.3 * dr.norm() {
+                    rho *= 1.5;
+                }
+                break;
+            }
+            rho *= 2.0 / 3.0;
+            next = project_on_cone(&(r - uhat * rho), mu);
+        }
+        r = next;
+        if local_natural_map(&r, &(w * r + q), mu, contact_rho(w)).norm() <= tol {
+            break;
+        }
+    }
+    r
+}

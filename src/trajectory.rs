@@ -1,0 +1,97 @@
+//! Recorded trajectories: one row per recorded step with time, energy, every moving body's
+//! pose and twist, and every contact candidate's gap and impulse; written as CSV or Parquet.
+
+use crate::integrator::Simulation;
+use crate::mechanics::Motion;
+use arrow_array::{ArrayRef, Float64Array, RecordBatch};
+use arrow_schema::{DataType, Field, Schema};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::WriterProperties;
+use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Column-major table of f64 samples.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory {
+    pub columns: Vec<String>,
+    pub data: Vec<Vec<f64>>,
+}
+
+const BODY_FIELDS: [&str; 13] = ["x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz"];
+const CONTACT_FIELDS: [&str; 4] = ["gap", "pn", "pt1", "pt2"];
+
+impl Trajectory {
+    /// An empty trajectory with the columns of `sim`'s model.
+    pub fn for_simulation(sim: &Simulation) -> Self {
+        let m = &sim.model;
+        let mut columns = vec!["t".to_string(), "energy".to_string()];
+        for b in m.bodies.iter().filter(|b| b.motion != Motion::Fixed) {
+            columns.extend(BODY_FIELDS.iter().map(|f| format!("{}.{f}", b.name)));
+        }
+        for &(c, k) in sim.contact_ids() {
+            let pair = &m.contacts[c];
+            let base = if pair.candidates() == 1 { pair.name.clone() } else { format!("{}[{k}]", pair.name) };
+            columns.extend(CONTACT_FIELDS.iter().map(|f| format!("{base}.{f}")));
+        }
+        let data = vec![Vec::new(); columns.len()];
+        Trajectory { columns, data }
+    }
+
+    pub fn rows(&self) -> usize {
+        self.data.first().map_or(0, Vec::len)
+    }
+
+    /// Appends the current state of `sim` (its last step's impulses included).
+    pub fn record(&mut self, sim: &Simulation) {
+        let s = &sim.state;
+        let mut row = Vec::with_capacity(self.columns.len());
+        row.push(s.t);
+        row.push(sim.energy());
+        for (i, b) in sim.model.bodies.iter().enumerate() {
+            if b.motion == Motion::Fixed {
+                continue;
+            }
+            let p = &s.poses[i];
+            let q = p.p.quaternion();
+            row.extend_from_slice(&[p.x.x, p.x.y, p.x.z, q.w, q.i, q.j, q.k]);
+            row.extend_from_slice(&s.v.as_slice()[6 * i..6 * i + 6]);
+        }
+        for (cp, imp) in sim.contact_points().iter().zip(sim.impulses()) {
+            row.extend_from_slice(&[cp.gap(), imp.x, imp.y, imp.z]);
+        }
+        for (col, x) in self.data.iter_mut().zip(row) {
+            col.push(x);
+        }
+    }
+
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+    }
+
+    pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+        writeln!(w, "{}", self.columns.join(","))?;
+        for r in 0..self.rows() {
+            let line: Vec<String> = self.data.iter().map(|c| format!("{:e}", c[r])).collect();
+            writeln!(w, "{}", line.join(","))?;
+        }
+        w.flush()
+    }
+
+    pub fn write_parquet(&self, path: &Path) -> Result<(), parquet::errors::ParquetError> {
+        let schema = Arc::new(Schema::new(
+            self.columns.iter().map(|c| Field::new(c, DataType::Float64, false)).collect::<Vec<_>>(),
+        ));
+        let arrays: Vec<ArrayRef> = self.data.iter().map(|c| Arc::new(Float64Array::from(c.clone())) as ArrayRef).collect();
+        let batch = RecordBatch::try_new(schema.clone(), arrays)?;
+        let props = WriterProperties::builder()
+            .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .build();
+        let mut w = ArrowWriter::try_new(std::fs::File::create(path)?, schema, Some(props))?;
+        w.write(&batch)?;
+        w.close()?;
+        Ok(())
+    }
+}
