@@ -84,9 +84,16 @@ fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) 
     Ok(())
 }
 
-fn main() -> Result<()> {
+fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match &cli.command {
+    let result = match &cli.command {
         Command::Simulate { scene, out, duration } => simulate(scene, out.as_ref(), *duration),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
     }
 }

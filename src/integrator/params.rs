@@ -29,6 +29,12 @@ pub struct IntegrationParameters {
     /// γ of the activation forecast `g + γ h u_N ≤ 0`. Default 1/2.
     pub gamma: f64,
     pub scheme: Scheme,
+    /// A contact enters the velocity problem when `g + γ h u_N ≤ activation_margin` (m).
+    /// Default 1e-9 m. The small positive margin keeps resting contacts (a box on four
+    /// corners, u_N ≈ ±1e-12 from round-off) from flickering in and out of the active set,
+    /// which would rock the body; an active contact with a positive gap still separates
+    /// freely, so the margin only bounds how early an approach is stopped.
+    pub activation_margin: f64,
     /// FC3D solver tolerance (relative natural-map error) and sweep limit.
     /// Defaults 1e-12 and 1000.
     pub solver: NsgsOptions,
@@ -45,6 +51,7 @@ impl Default for IntegrationParameters {
             theta: 0.5,
             gamma: 0.5,
             scheme: Scheme::MoreauJean,
+            activation_margin: 1e-9,
             solver: NsgsOptions::default(),
             newton_tolerance: 1e-10,
             newton_max_iterations: 15,
@@ -68,6 +75,9 @@ impl IntegrationParameters {
         }
         if !(0.0..=1.0).contains(&self.gamma) {
             return Err(("gamma", format!("must be in [0, 1], got {}", self.gamma)));
+        }
+        if !(self.activation_margin.is_finite() && self.activation_margin >= 0.0) {
+            return Err(("activation_margin", format!("must be ≥ 0, got {}", self.activation_margin)));
         }
         positive("solver.tolerance", self.solver.tolerance)?;
         positive("newton.tolerance", self.newton_tolerance)?;

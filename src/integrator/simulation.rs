@@ -108,7 +108,7 @@ impl Simulation {
             Scheme::MoreauJean => (0..self.points.len())
                 .filter(|&i| {
                     let c = &self.points[i];
-                    c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= 0.0
+                    c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
                 })
                 .collect(),
         };

@@ -365,6 +365,9 @@ fn integrator(spec: &IntegratorSpec) -> R<IntegrationParameters> {
             other => return Err(SceneError::at(line(s), "integrator.scheme", format!("unknown scheme `{other}` (available: moreau-jean)"))),
         };
     }
+    if let Some(m) = &spec.activation_margin {
+        p.activation_margin = non_negative(m, Dim::LENGTH, "integrator.activation_margin")?;
+    }
     if let Some(s) = &spec.solver {
         if let Some(t) = &s.tolerance {
             p.solver.tolerance = positive(t, Dim::NONE, "integrator.solver.tolerance")?;

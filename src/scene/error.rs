@@ -30,6 +30,7 @@ impl SceneError {
         let line = e.location().map(|l| l.line()).filter(|&l| l > 0);
         // the first line of saphyr's rendering is the message; the rest is a source snippet
         let text = e.to_string();
+        let text = text.trim().trim_start_matches("error: ");
         SceneError {
             file: Some(file.to_string()),
             line,

@@ -36,6 +36,7 @@ pub struct IntegratorSpec {
     pub theta: Option<Q>,
     pub gamma: Option<Q>,
     pub scheme: Option<Name>,
+    pub activation_margin: Option<Q>,
     pub solver: Option<ToleranceSpec>,
     pub newton: Option<ToleranceSpec>,
 }

@@ -1,0 +1,28 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use mc_study::integrator::Simulation;
+use mc_study::scene::Scene;
+use std::path::Path;
+
+/// Loads a bundled scene from `studies/<name>/scene.yaml`.
+pub fn bundled(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies").join(name).join("scene.yaml");
+    Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn simulation(scene: Scene) -> Simulation {
+    Simulation::new(scene.model, scene.params).expect("valid parameters")
+}
+
+/// Least-squares slope of log(err) against log(h).
+pub fn loglog_slope(h: &[f64], err: &[f64]) -> f64 {
+    let x: Vec<f64> = h.iter().map(|v| v.ln()).collect();
+    let y: Vec<f64> = err.iter().map(|v| v.ln()).collect();
+    let n = x.len() as f64;
+    let mx = x.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let sxy: f64 = x.iter().zip(&y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    sxy / sxx
+}

@@ -1,0 +1,150 @@
+//! Bad scene input: every error names the field and the line, and the CLI exits non-zero.
+
+use mc_study::scene::Scene;
+
+const GOOD_BALL: &str = "duration: 1 s
+bodies:
+  - name: ball
+    mass: 1 kg
+    shape: { sphere: { radius: 0.1 m } }
+    position: [0, 0, 1 m]
+contacts:
+  - name: floor
+    body: ball
+    shape: { sphere: { radius: 0.1 m } }
+    against: ground
+    against_shape: { plane: { normal: [0, 0, 1] } }
+    mu: 0.2
+    e: 0.5
+";
+
+/// Replaces `from` by `to` in the good scene and returns the error.
+fn error_of(from: &str, to: &str) -> String {
+    assert!(GOOD_BALL.contains(from), "test typo: {from}");
+    let text = GOOD_BALL.replacen(from, to, 1);
+    match Scene::from_yaml(&text, "scene.yaml") {
+        Ok(_) => panic!("accepted bad input: {to}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn expect(from: &str, to: &str, field: &str, line: u32) {
+    let e = error_of(from, to);
+    assert!(e.starts_with(&format!("scene.yaml:{line}:")), "wrong line in: {e}");
+    assert!(e.contains(field), "field `{field}` not named in: {e}");
+}
+
+#[test]
+fn the_good_scene_is_accepted() {
+    let s = Scene::from_yaml(GOOD_BALL, "scene.yaml").unwrap();
+    assert_eq!(s.model.bodies[0].mass, 1.0);
+    assert_eq!(s.model.contacts[0].mu, 0.2);
+}
+
+#[test]
+fn unknown_field() {
+    expect("    position", "    colour: red\n    position", "unknown field `colour`", 6);
+}
+
+#[test]
+fn negative_mass() {
+    expect("mass: 1 kg", "mass: -1 kg", "bodies[0].mass", 4);
+}
+
+#[test]
+fn non_positive_definite_inertia() {
+    expect("    shape: { sphere: { radius: 0.1 m } }\n    position", "    inertia: [1, -2, 3]\n    position", "bodies[0].inertia", 5);
+    expect(
+        "    shape: { sphere: { radius: 0.1 m } }\n    position",
+        "    inertia: [1, 0, 0, 0.5, 1, 0, 0, 0, 1]\n    position",
+        "symmetric positive definite",
+        5,
+    );
+}
+
+#[test]
+fn non_positive_time_step() {
+    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  h: 0\n", "integrator.h", 3);
+    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  h: -1 ms\n", "integrator.h", 3);
+}
+
+#[test]
+fn restitution_outside_the_unit_interval() {
+    expect("e: 0.5", "e: 1.5", "contacts[0].e", 14);
+    expect("e: 0.5", "e: -0.1", "contacts[0].e", 14);
+}
+
+#[test]
+fn negative_friction() {
+    expect("mu: 0.2", "mu: -0.2", "contacts[0].mu", 13);
+}
+
+#[test]
+fn unknown_body_name() {
+    expect("against: ground", "against: table", "unknown body `table`", 11);
+    expect("    body: ball", "    body: bal", "contacts[0].body", 9);
+}
+
+#[test]
+fn wrong_unit_dimension_and_bad_theta() {
+    expect("radius: 0.1 m } }\n    position", "radius: 0.1 ms } }\n    position", "a length", 5);
+    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  theta: 0.3\n", "integrator.theta", 3);
+}
+
+#[test]
+fn yaml_syntax_error_names_the_line() {
+    let e = error_of("    mass: 1 kg", "    mass: [1 kg");
+    assert!(e.starts_with("scene.yaml:"), "{e}");
+}
+
+mod cli {
+    use std::process::Command;
+
+    fn mc_study(args: &[&str]) -> std::process::Output {
+        Command::new(env!("CARGO_BIN_EXE_mc-study"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    }
+
+    #[test]
+    fn simulate_writes_csv_and_parquet_and_prints_diagnostics() {
+        let dir = std::env::temp_dir().join(format!("mc-study-cli-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for ext in ["csv", "parquet"] {
+            let out = dir.join(format!("ball.{ext}"));
+            let o = mc_study(&["simulate", "studies/bouncing-ball/scene.yaml", "--out", out.to_str().unwrap()]);
+            let stdout = String::from_utf8_lossy(&o.stdout);
+            assert!(o.status.success(), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+            for key in ["steps            10000", "max penetration", "solver failures  0", "wall time"] {
+                assert!(stdout.contains(key), "missing `{key}` in:\n{stdout}");
+            }
+            let meta = std::fs::metadata(&out).unwrap();
+            assert!(meta.len() > 1000, "{ext} output is {} bytes", meta.len());
+        }
+        let csv = std::fs::read_to_string(dir.join("ball.csv")).unwrap();
+        let header = csv.lines().next().unwrap();
+        assert!(header.starts_with("t,energy,ball.x,ball.y,ball.z,ball.qw"), "{header}");
+        assert!(header.contains("floor.gap") && header.contains("floor.pn"));
+        assert_eq!(csv.lines().count(), 1 + 1001, "initial row + every 10th of 10000 steps");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn bad_scene_exits_nonzero_with_the_field_and_line() {
+        let dir = std::env::temp_dir().join(format!("mc-study-bad-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.yaml");
+        std::fs::write(&path, super::GOOD_BALL.replace("mass: 1 kg", "mass: -1 kg")).unwrap();
+        let o = mc_study(&["simulate", path.to_str().unwrap()]);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("bad.yaml:4:") && err.contains("bodies[0].mass") && err.contains("must be positive"), "{err}");
+        assert!(!err.contains("Stack backtrace"), "{err}");
+        let o = mc_study(&["simulate", "no/such/scene.yaml"]);
+        assert!(!o.status.success());
+        assert!(String::from_utf8_lossy(&o.stderr).contains("cannot read the scene file"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,129 @@
+//! FC3D solver oracles: random well-posed instances, the exact stick/slip threshold of one
+//! contact, and the frictionless case against an enumerated LCP solution.
+
+use mc_study::solver::{natural_map_error, solve_fc3d, Fc3d, NsgsOptions};
+use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn random_instance(rng: &mut ChaCha8Rng, n: usize, frictionless: bool) -> (DMatrix<f64>, DVector<f64>, Vec<f64>) {
+    let m = 3 * n;
+    let b = DMatrix::from_fn(m, m, |_, _| rng.random_range(-1.0..1.0) / (m as f64).sqrt());
+    let w = &b * b.transpose() + DMatrix::identity(m, m) * 0.5;
+    let q = DVector::from_fn(m, |_, _| rng.random_range(-1.0..1.0));
+    let mu = (0..n).map(|_| if frictionless { 0.0 } else { rng.random_range(0.05..1.0) }).collect();
+    (w, q, mu)
+}
+
+/// Independent check of the complementarity conditions of a solution.
+fn check_solution(w: &DMatrix<f64>, q: &DVector<f64>, mu: &[f64], r: &DVector<f64>, tol: f64) {
+    let u = w * r + q;
+    let scale = r.amax().max(q.amax());
+    for (a, &m) in mu.iter().enumerate() {
+        let (rn, rt) = (r[3 * a], (r[3 * a + 1].powi(2) + r[3 * a + 2].powi(2)).sqrt());
+        let ut = (u[3 * a + 1].powi(2) + u[3 * a + 2].powi(2)).sqrt();
+        let un_hat = u[3 * a] + m * ut;
+        assert!(rn >= -tol * scale && rt <= m * rn + tol * scale, "contact {a}: r outside the cone");
+        // û ∈ K* (⇔ u_N ≥ 0) and r ⟂ û (⇔ Signorini r_N u_N = 0 with the slip rule below)
+        assert!(u[3 * a] >= -tol * scale && un_hat >= m * ut - tol * scale, "contact {a}: û outside the dual cone");
+        let r_dot_uhat = rn * un_hat + r[3 * a + 1] * u[3 * a + 1] + r[3 * a + 2] * u[3 * a + 2];
+        assert!(r_dot_uhat.abs() <= tol * scale * scale, "contact {a}: r·û = {r_dot_uhat}");
+        assert!((rn * u[3 * a]).abs() <= tol * scale * scale, "contact {a}: r_N u_N = {}", rn * u[3 * a]);
+        if ut > tol * scale && m > 0.0 {
+            // sliding: friction at the cone boundary, opposite to the slip
+            let dot = (r[3 * a + 1] * u[3 * a + 1] + r[3 * a + 2] * u[3 * a + 2]) / ut;
+            assert!((dot + m * rn).abs() <= 1e-8 * scale, "contact {a}: friction not opposite to slip");
+        }
+    }
+}
+
+#[test]
+fn random_instances_reach_the_tolerance() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let opts = NsgsOptions {
+        tolerance: 1e-11,
+        max_sweeps: 5000,
+    };
+    let mut worst_sweeps = 0;
+    for n in [1usize, 2, 3, 5, 8, 13, 20, 35, 50] {
+        for _ in 0..4 {
+            let (w, q, mu) = random_instance(&mut rng, n, false);
+            let mut r = DVector::zeros(3 * n);
+            let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &mu }, &mut r, &opts);
+            let err = natural_map_error(&Fc3d { w: &w, q: &q, mu: &mu }, &r);
+            assert!(st.converged && err < 1e-10, "n = {n}: residual {err:e} after {} sweeps", st.iterations);
+            check_solution(&w, &q, &mu, &r, 1e-9);
+            worst_sweeps = worst_sweeps.max(st.iterations);
+        }
+    }
+    eprintln!("worst sweeps over random instances: {worst_sweeps}");
+}
+
+#[test]
+fn single_contact_stick_slip_threshold_is_exact() {
+    let (wn, wt, mu, a) = (2.0, 3.0, 0.4, 1.5);
+    let w = DMatrix::from_diagonal(&DVector::from_vec(vec![wn, wt, wt]));
+    let threshold = mu * a * wt / wn; // |q_T| at which sticking stops being possible
+    let solve = |b: f64| {
+        let q = DVector::from_vec(vec![-a, b * 0.6, b * 0.8]);
+        let mut r = DVector::zeros(3);
+        let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &[mu] }, &mut r, &NsgsOptions::default());
+        assert!(st.converged);
+        (r.clone(), &w * &r + &q)
+    };
+    // just below: sticks, u = 0 and the friction is inside the cone
+    let (r, u) = solve(threshold * (1.0 - 1e-9));
+    assert!(u.norm() < 1e-14, "sticking velocity {u}");
+    assert!((r[1].hypot(r[2])) < mu * r[0]);
+    // just above: slides, friction on the cone boundary opposite to q_T
+    let (r, u) = solve(threshold * (1.0 + 1e-9));
+    let ut = u[1].hypot(u[2]);
+    assert!(ut > 0.0 && (ut - threshold * 1e-9).abs() < 1e-14, "slip speed {ut}");
+    assert!((r[0] - a / wn).abs() < 1e-14);
+    assert!((r[1] + mu * r[0] * 0.6).abs() < 1e-14 && (r[2] + mu * r[0] * 0.8).abs() < 1e-14, "r = {r}");
+    // separation when the free normal velocity is positive
+    let q = DVector::from_vec(vec![0.5, 1.0, 0.0]);
+    let mut r = DVector::zeros(3);
+    solve_fc3d(&Fc3d { w: &w, q: &q, mu: &[mu] }, &mut r, &NsgsOptions::default());
+    assert_eq!(r, DVector::zeros(3));
+}
+
+/// Solution of LCP(M, q) by enumerating the active sets (small n only).
+fn lcp_by_enumeration(m: &DMatrix<f64>, q: &DVector<f64>) -> DVector<f64> {
+    let n = q.len();
+    for set in 0u32..(1 << n) {
+        let idx: Vec<usize> = (0..n).filter(|i| set & (1 << i) != 0).collect();
+        let mut z = DVector::zeros(n);
+        if !idx.is_empty() {
+            let msub = DMatrix::from_fn(idx.len(), idx.len(), |a, b| m[(idx[a], idx[b])]);
+            let qsub = DVector::from_fn(idx.len(), |a, _| -q[idx[a]]);
+            let Some(sol) = msub.lu().solve(&qsub) else { continue };
+            for (a, &i) in idx.iter().enumerate() {
+                z[i] = sol[a];
+            }
+        }
+        let w = m * &z + q;
+        if z.iter().all(|&x| x >= -1e-12) && w.iter().all(|&x| x >= -1e-12) {
+            return z;
+        }
+    }
+    panic!("no LCP solution found")
+}
+
+#[test]
+fn frictionless_case_equals_the_lcp_solution() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for n in 1..=8 {
+        let (w, q, mu) = random_instance(&mut rng, n, true);
+        let mut r = DVector::zeros(3 * n);
+        let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &mu }, &mut r, &NsgsOptions::default());
+        assert!(st.converged);
+        let wn = DMatrix::from_fn(n, n, |a, b| w[(3 * a, 3 * b)]);
+        let qn = DVector::from_fn(n, |a, _| q[3 * a]);
+        let z = lcp_by_enumeration(&wn, &qn);
+        for a in 0..n {
+            assert!((r[3 * a] - z[a]).abs() < 1e-10 * (1.0 + z.amax()), "n = {n}, contact {a}: {} vs LCP {}", r[3 * a], z[a]);
+            assert_eq!((r[3 * a + 1], r[3 * a + 2]), (0.0, 0.0));
+        }
+    }
+}
