@@ -1,1 +1,50 @@
-fn main(){}
+//! Time per step of the Moreau–Jean integrator on the bundled scenes:
+//! - bouncing ball (Newton–Euler sphere, 10 s at h = 1 ms: flight, impacts, Zeno, rest),
+//! - 4-corner box sliding then sticking on a 20° incline with friction (3 s),
+//! - free asymmetric rigid body (gyroscopic Newton loop, 10 s).
+//!
+//! Criterion reports time per element = per step. Run: `cargo bench --bench step`.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use mc_study::integrator::Simulation;
+use mc_study::scene::Scene;
+use std::hint::black_box;
+use std::path::Path;
+
+fn scene(name: &str) -> Scene {
+    Scene::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("studies")
+            .join(name)
+            .join("scene.yaml"),
+    )
+    .unwrap()
+}
+
+fn bench_scene(c: &mut Criterion, label: &str, name: &str, duration: f64) {
+    let s = scene(name);
+    let steps = (duration / s.params.h).round() as u64;
+    let mut g = c.benchmark_group("step");
+    g.throughput(Throughput::Elements(steps));
+    g.sample_size(20);
+    g.bench_function(label, |b| {
+        b.iter_batched(
+            || Simulation::new(s.model.clone(), s.params.clone()).unwrap(),
+            |mut sim| {
+                sim.run_until(duration, |_, _| {}).unwrap();
+                black_box(sim.state.t)
+            },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+}
+
+fn steps(c: &mut Criterion) {
+    bench_scene(c, "bouncing_ball", "bouncing-ball", 10.0);
+    bench_scene(c, "box_4_corners_friction", "incline-block", 3.0);
+    bench_scene(c, "free_rigid_body", "free-body", 10.0);
+}
+
+criterion_group!(benches, steps);
+criterion_main!(benches);

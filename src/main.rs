@@ -5,11 +5,15 @@ use clap::{Parser, Subcommand};
 use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
 use mc_study::trajectory::Trajectory;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "mc-study", version, about = "Monte-Carlo tolerance studies of mechanisms with clearances on an exact nonsmooth (Moreau–Jean) integrator")]
+#[command(
+    name = "mc-study",
+    version,
+    about = "Monte-Carlo tolerance studies of mechanisms with clearances on an exact nonsmooth (Moreau–Jean) integrator"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -32,7 +36,7 @@ enum Command {
     },
 }
 
-fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) -> Result<()> {
+fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> Result<()> {
     let scene = Scene::load(scene_path)?;
     let format = match out.and_then(|p| p.extension()).and_then(|e| e.to_str()) {
         None if out.is_none() => None,
@@ -41,7 +45,9 @@ fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) 
         _ => bail!("--out must end in .csv or .parquet"),
     };
     let duration = match duration {
-        Some(d) if !(d > 0.0 && d.is_finite()) => bail!("--duration must be a positive number of seconds, got {d}"),
+        Some(d) if !(d > 0.0 && d.is_finite()) => {
+            bail!("--duration must be a positive number of seconds, got {d}")
+        }
         Some(d) => d,
         None => scene.duration,
     };
@@ -58,11 +64,19 @@ fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) 
     let wall = start.elapsed();
     let st = sim.stats;
     println!("scene            {} ({})", scene.name, scene_path.display());
-    println!("scheme           {} h = {:e} s, θ = {}", sim.params.scheme.name(), sim.params.h, sim.params.theta);
+    println!(
+        "scheme           {} h = {:e} s, θ = {}",
+        sim.params.scheme.name(),
+        sim.params.h,
+        sim.params.theta
+    );
     println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);
     println!("max penetration  {:.3e} m", st.max_penetration);
     println!("max active       {} contacts", st.max_active_contacts);
-    println!("solver failures  {} steps (max residual {:.2e})", st.solver_failures, st.max_solver_residual);
+    println!(
+        "solver failures  {} steps (max residual {:.2e})",
+        st.solver_failures, st.max_solver_residual
+    );
     println!("newton failures  {} steps", st.newton_failures);
     println!(
         "wall time        {:.3} s ({:.3} µs/step)",
@@ -75,11 +89,19 @@ fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) 
             _ => traj.write_parquet(path).map_err(std::io::Error::other),
         }
         .with_context(|| format!("writing {}", path.display()))?;
-        println!("trajectory       {} rows × {} columns → {}", traj.rows(), traj.columns.len(), path.display());
+        println!(
+            "trajectory       {} rows × {} columns → {}",
+            traj.rows(),
+            traj.columns.len(),
+            path.display()
+        );
     }
     result?;
     if st.solver_failures > 0 || st.newton_failures > 0 {
-        eprintln!("warning: {} step(s) did not converge; see the counts above", st.solver_failures + st.newton_failures);
+        eprintln!(
+            "warning: {} step(s) did not converge; see the counts above",
+            st.solver_failures + st.newton_failures
+        );
     }
     Ok(())
 }
@@ -87,7 +109,11 @@ fn simulate(scene_path: &PathBuf, out: Option<&PathBuf>, duration: Option<f64>) 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
-        Command::Simulate { scene, out, duration } => simulate(scene, out.as_ref(), *duration),
+        Command::Simulate {
+            scene,
+            out,
+            duration,
+        } => simulate(scene, out.as_ref(), *duration),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -19,7 +19,9 @@ pub struct Trajectory {
     pub data: Vec<Vec<f64>>,
 }
 
-const BODY_FIELDS: [&str; 13] = ["x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz"];
+const BODY_FIELDS: [&str; 13] = [
+    "x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz",
+];
 const CONTACT_FIELDS: [&str; 4] = ["gap", "pn", "pt1", "pt2"];
 
 impl Trajectory {
@@ -32,7 +34,11 @@ impl Trajectory {
         }
         for &(c, k) in sim.contact_ids() {
             let pair = &m.contacts[c];
-            let base = if pair.candidates() == 1 { pair.name.clone() } else { format!("{}[{k}]", pair.name) };
+            let base = if pair.candidates() == 1 {
+                pair.name.clone()
+            } else {
+                format!("{}[{k}]", pair.name)
+            };
             columns.extend(CONTACT_FIELDS.iter().map(|f| format!("{base}.{f}")));
         }
         let data = vec![Vec::new(); columns.len()];
@@ -67,7 +73,10 @@ impl Trajectory {
     }
 
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().position(|c| c == name).map(|i| self.data[i].as_slice())
+        self.columns
+            .iter()
+            .position(|c| c == name)
+            .map(|i| self.data[i].as_slice())
     }
 
     pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
@@ -82,9 +91,16 @@ impl Trajectory {
 
     pub fn write_parquet(&self, path: &Path) -> Result<(), parquet::errors::ParquetError> {
         let schema = Arc::new(Schema::new(
-            self.columns.iter().map(|c| Field::new(c, DataType::Float64, false)).collect::<Vec<_>>(),
+            self.columns
+                .iter()
+                .map(|c| Field::new(c, DataType::Float64, false))
+                .collect::<Vec<_>>(),
         ));
-        let arrays: Vec<ArrayRef> = self.data.iter().map(|c| Arc::new(Float64Array::from(c.clone())) as ArrayRef).collect();
+        let arrays: Vec<ArrayRef> = self
+            .data
+            .iter()
+            .map(|c| Arc::new(Float64Array::from(c.clone())) as ArrayRef)
+            .collect();
         let batch = RecordBatch::try_new(schema.clone(), arrays)?;
         let props = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))

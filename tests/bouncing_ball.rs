@@ -31,7 +31,10 @@ fn impact_times_zeno_point_and_rest_e09() {
     let h = 1e-3;
     let mut sim = ball(0.9, h);
     let (analytic, t_inf) = impact_times(0.9, 8);
-    assert!((t_inf - 8.138706).abs() < 1e-6, "reference Zeno time {t_inf}");
+    assert!(
+        (t_inf - 8.138706).abs() < 1e-6,
+        "reference Zeno time {t_inf}"
+    );
     let mut impacts = Vec::new();
     let mut in_contact = false;
     let mut rest_checked = 0;
@@ -45,14 +48,26 @@ fn impact_times_zeno_point_and_rest_e09() {
         // (the Newton law acting on u_N ~ 1e-6 m/s); 0.3 s later the ball is at rest: the
         // impulse per step carries the weight exactly and no velocity remains.
         if s.state.t > t_inf + 0.3 {
-            assert!((pn - 1.0 * G * h).abs() <= 1e-9 * G * h, "t = {}: impulse {pn}", s.state.t);
-            assert!(s.state.v.norm() < 1e-12, "t = {}: v = {}", s.state.t, s.state.v.norm());
+            assert!(
+                (pn - 1.0 * G * h).abs() <= 1e-9 * G * h,
+                "t = {}: impulse {pn}",
+                s.state.t
+            );
+            assert!(
+                s.state.v.norm() < 1e-12,
+                "t = {}: v = {}",
+                s.state.t,
+                s.state.v.norm()
+            );
             rest_checked += 1;
         }
     })
     .unwrap();
     assert!(rest_checked > 1500);
-    assert!(impacts.iter().any(|&t| t > 8.0), "the scheme reaches the accumulation point");
+    assert!(
+        impacts.iter().any(|&t| t > 8.0),
+        "the scheme reaches the accumulation point"
+    );
     // The first impact lands within one step. Each impact then costs the event-capturing
     // scheme up to about one step (the impulse acts over a whole step, during which the
     // ball stalls at the ground), so the n-th impact lags by at most n + 1 steps.
@@ -64,7 +79,11 @@ fn impact_times_zeno_point_and_rest_e09() {
             k + 1
         );
     }
-    assert!(impacts.len() >= analytic.len(), "only {} impacts", impacts.len());
+    assert!(
+        impacts.len() >= analytic.len(),
+        "only {} impacts",
+        impacts.len()
+    );
     // resting gap: the plain scheme keeps a penetration of at most O(h·v) from the last
     // impacts, well under one step's travel at the first impact speed
     let gap = sim.contact_points()[0].gap();
@@ -89,11 +108,22 @@ fn impact_times_converge_first_order() {
         })
         .unwrap();
         assert!(impacts.len() >= 8);
-        impacts.iter().zip(&analytic).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
+        impacts
+            .iter()
+            .zip(&analytic)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
     };
     let (coarse, fine) = (lag(1e-3), lag(1e-4));
-    assert!(coarse < 1e-2 && fine < 1e-3, "lags {coarse:.2e}, {fine:.2e}");
-    assert!(coarse / fine > 5.0, "impact-time error ratio {:.2} for a 10× smaller step", coarse / fine);
+    assert!(
+        coarse < 1e-2 && fine < 1e-3,
+        "lags {coarse:.2e}, {fine:.2e}"
+    );
+    assert!(
+        coarse / fine > 5.0,
+        "impact-time error ratio {:.2} for a 10× smaller step",
+        coarse / fine
+    );
 }
 
 #[test]
@@ -131,5 +161,8 @@ fn plastic_impact_does_not_rebound_e0() {
     .unwrap();
     let t = hit.expect("the ball hits the ground");
     assert!((t - 0.428353).abs() <= 1e-3);
-    assert!(max_up <= 1e-12, "upward velocity {max_up} after a plastic impact");
+    assert!(
+        max_up <= 1e-12,
+        "upward velocity {max_up} after a plastic impact"
+    );
 }

@@ -53,7 +53,10 @@ fn sliding_block_stops_at_the_analytic_time_and_sticks_without_creep() {
     let mut stop = None;
     let mut worst_after: f64 = 0.0;
     sim.run_until(3.0, |s, r| {
-        assert_eq!(r.active_contacts, 4, "exactly the 4 bottom corners are active");
+        assert_eq!(
+            r.active_contacts, 4,
+            "exactly the 4 bottom corners are active"
+        );
         let speed = s.state.v.norm();
         if stop.is_none() && speed < 1e-12 {
             stop = Some(s.state.t);
@@ -64,13 +67,22 @@ fn sliding_block_stops_at_the_analytic_time_and_sticks_without_creep() {
     })
     .unwrap();
     let stop = stop.expect("the block stops");
-    assert!((stop - t_star).abs() <= h, "stopped at {stop}, analytic {t_star}");
-    assert!(worst_after < 1e-12, "creep after sticking: |v| = {worst_after:e}");
+    assert!(
+        (stop - t_star).abs() <= h,
+        "stopped at {stop}, analytic {t_star}"
+    );
+    assert!(
+        worst_after < 1e-12,
+        "creep after sticking: |v| = {worst_after:e}"
+    );
     assert_eq!(sim.stats.solver_failures, 0);
     // distance travelled along the slope = v0 t*/2 = 1.59493 m
     let b = 20f64.to_radians();
     let travelled = (sim.state.poses[0].x - Vector3::new(b.sin(), 0.0, b.cos()) * 0.025).norm();
-    assert!((travelled - 1.59493).abs() < 2.0 * h, "distance {travelled}");
+    assert!(
+        (travelled - 1.59493).abs() < 2.0 * h,
+        "distance {travelled}"
+    );
 }
 
 #[test]
@@ -82,8 +94,14 @@ fn block_slides_from_rest_with_the_coulomb_acceleration() {
     sim.run_until(1.0, |_, _| {}).unwrap();
     let speed = sim.state.v.fixed_rows::<3>(0).norm();
     let a = speed / sim.state.t;
-    assert!((a - a_ref).abs() / a_ref < 1e-6, "a = {a}, expected {a_ref}");
-    assert!(sim.state.v.fixed_rows::<3>(3).norm() < 1e-9, "the block does not tip or spin");
+    assert!(
+        (a - a_ref).abs() / a_ref < 1e-6,
+        "a = {a}, expected {a_ref}"
+    );
+    assert!(
+        sim.state.v.fixed_rows::<3>(3).norm() < 1e-9,
+        "the block does not tip or spin"
+    );
 }
 
 #[test]
@@ -108,6 +126,8 @@ fn friction_opposes_an_oblique_sliding_velocity() {
     })
     .unwrap();
     assert!(checked > 500, "{checked} sliding steps checked");
-    assert!(worst < 1e-9, "friction deviates from −v: 1 + cos = {worst:e}");
+    assert!(
+        worst < 1e-9,
+        "friction deviates from −v: 1 + cos = {worst:e}"
+    );
 }
-

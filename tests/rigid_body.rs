@@ -58,7 +58,10 @@ fn attitude_converges_at_second_order() {
         .collect();
     let slope = loglog_slope(&hs, &errs);
     eprintln!("attitude errors {errs:?}, order {slope:.3}");
-    assert!((slope - 2.0).abs() <= 0.2, "measured order {slope:.3} (errors {errs:?})");
+    assert!(
+        (slope - 2.0).abs() <= 0.2,
+        "measured order {slope:.3} (errors {errs:?})"
+    );
     assert!(errs[3] < 1e-3, "attitude error at h = 2.5 ms: {}", errs[3]);
 }
 
@@ -69,7 +72,8 @@ fn long_run_conserves_energy_momentum_and_unit_norm_and_flips() {
     let i = Matrix3::from_diagonal(&Vector3::from(INERTIA));
     let e0 = sim.energy();
     let l0 = (i * Vector3::new(0.01, 2.0, 0.01)).norm();
-    let (mut worst_norm, mut e_first, mut e_second, mut l_first, mut l_second) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (mut worst_norm, mut e_first, mut e_second, mut l_first, mut l_second) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut flips = Vec::new();
     let mut last_sign = 1.0;
     sim.run_until(100.0, |s, r| {
@@ -94,16 +98,33 @@ fn long_run_conserves_energy_momentum_and_unit_norm_and_flips() {
     .unwrap();
     assert_eq!(sim.stats.steps, 100_000);
     eprintln!("|p|-1 {worst_norm:e}; energy err {e_first:e}/{e_second:e}; |L| err {l_first:e}/{l_second:e}; flips {:?}", &flips[..4.min(flips.len())]);
-    assert!(worst_norm < 1e-10, "| |p| − 1 | reached {worst_norm:e} without renormalisation");
+    assert!(
+        worst_norm < 1e-10,
+        "| |p| − 1 | reached {worst_norm:e} without renormalisation"
+    );
     // bounded errors, no secular drift: the second half is no worse than the first
-    assert!(e_first < 1e-5 && e_second < 1.5 * e_first + 1e-12, "energy errors {e_first:e}, {e_second:e}");
-    assert!(l_first < 1e-5 && l_second < 1.5 * l_first + 1e-12, "|L| errors {l_first:e}, {l_second:e}");
+    assert!(
+        e_first < 1e-5 && e_second < 1.5 * e_first + 1e-12,
+        "energy errors {e_first:e}, {e_second:e}"
+    );
+    assert!(
+        l_first < 1e-5 && l_second < 1.5 * l_first + 1e-12,
+        "|L| errors {l_first:e}, {l_second:e}"
+    );
     // Dzhanibekov: the spin about the intermediate axis flips, on the schedule of the
     // exact solution
     let reference = rk4_reference(30.0, 1e-4);
-    let first_ref = reference.windows(2).find(|w| w[0].2.y > 0.0 && w[1].2.y <= 0.0).expect("reference flips")[1].0;
+    let first_ref = reference
+        .windows(2)
+        .find(|w| w[0].2.y > 0.0 && w[1].2.y <= 0.0)
+        .expect("reference flips")[1]
+        .0;
     assert!(flips.len() >= 4, "flips at {flips:?}");
-    assert!((flips[0] - first_ref).abs() / first_ref < 0.01, "first flip at {} vs reference {first_ref}", flips[0]);
+    assert!(
+        (flips[0] - first_ref).abs() / first_ref < 0.01,
+        "first flip at {} vs reference {first_ref}",
+        flips[0]
+    );
 }
 
 #[test]
@@ -117,7 +138,10 @@ fn heavy_top_keeps_its_hamiltonian() {
     };
     let h0 = hamiltonian(&sim);
     assert!((h0 - 1269.975005).abs() < 1e-6, "initial H {h0}");
-    assert!((sim.energy() - h0).abs() < 1e-9, "the engine's energy is the Hamiltonian");
+    assert!(
+        (sim.energy() - h0).abs() < 1e-9,
+        "the engine's energy is the Hamiltonian"
+    );
     let mut worst: f64 = 0.0;
     let mut spin_err: f64 = 0.0;
     sim.run_until(10.0, |s, _| {

@@ -30,7 +30,10 @@ fn error_of(from: &str, to: &str) -> String {
 
 fn expect(from: &str, to: &str, field: &str, line: u32) {
     let e = error_of(from, to);
-    assert!(e.starts_with(&format!("scene.yaml:{line}:")), "wrong line in: {e}");
+    assert!(
+        e.starts_with(&format!("scene.yaml:{line}:")),
+        "wrong line in: {e}"
+    );
     assert!(e.contains(field), "field `{field}` not named in: {e}");
 }
 
@@ -43,7 +46,12 @@ fn the_good_scene_is_accepted() {
 
 #[test]
 fn unknown_field() {
-    expect("    position", "    colour: red\n    position", "unknown field `colour`", 6);
+    expect(
+        "    position",
+        "    colour: red\n    position",
+        "unknown field `colour`",
+        6,
+    );
 }
 
 #[test]
@@ -53,7 +61,12 @@ fn negative_mass() {
 
 #[test]
 fn non_positive_definite_inertia() {
-    expect("    shape: { sphere: { radius: 0.1 m } }\n    position", "    inertia: [1, -2, 3]\n    position", "bodies[0].inertia", 5);
+    expect(
+        "    shape: { sphere: { radius: 0.1 m } }\n    position",
+        "    inertia: [1, -2, 3]\n    position",
+        "bodies[0].inertia",
+        5,
+    );
     expect(
         "    shape: { sphere: { radius: 0.1 m } }\n    position",
         "    inertia: [1, 0, 0, 0.5, 1, 0, 0, 0, 1]\n    position",
@@ -64,8 +77,18 @@ fn non_positive_definite_inertia() {
 
 #[test]
 fn non_positive_time_step() {
-    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  h: 0\n", "integrator.h", 3);
-    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  h: -1 ms\n", "integrator.h", 3);
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nintegrator:\n  h: 0\n",
+        "integrator.h",
+        3,
+    );
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nintegrator:\n  h: -1 ms\n",
+        "integrator.h",
+        3,
+    );
 }
 
 #[test]
@@ -81,14 +104,29 @@ fn negative_friction() {
 
 #[test]
 fn unknown_body_name() {
-    expect("against: ground", "against: table", "unknown body `table`", 11);
+    expect(
+        "against: ground",
+        "against: table",
+        "unknown body `table`",
+        11,
+    );
     expect("    body: ball", "    body: bal", "contacts[0].body", 9);
 }
 
 #[test]
 fn wrong_unit_dimension_and_bad_theta() {
-    expect("radius: 0.1 m } }\n    position", "radius: 0.1 ms } }\n    position", "a length", 5);
-    expect("duration: 1 s\n", "duration: 1 s\nintegrator:\n  theta: 0.3\n", "integrator.theta", 3);
+    expect(
+        "radius: 0.1 m } }\n    position",
+        "radius: 0.1 ms } }\n    position",
+        "a length",
+        5,
+    );
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nintegrator:\n  theta: 0.3\n",
+        "integrator.theta",
+        3,
+    );
 }
 
 #[test]
@@ -114,10 +152,24 @@ mod cli {
         std::fs::create_dir_all(&dir).unwrap();
         for ext in ["csv", "parquet"] {
             let out = dir.join(format!("ball.{ext}"));
-            let o = mc_study(&["simulate", "studies/bouncing-ball/scene.yaml", "--out", out.to_str().unwrap()]);
+            let o = mc_study(&[
+                "simulate",
+                "studies/bouncing-ball/scene.yaml",
+                "--out",
+                out.to_str().unwrap(),
+            ]);
             let stdout = String::from_utf8_lossy(&o.stdout);
-            assert!(o.status.success(), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
-            for key in ["steps            10000", "max penetration", "solver failures  0", "wall time"] {
+            assert!(
+                o.status.success(),
+                "{stdout}{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            for key in [
+                "steps            10000",
+                "max penetration",
+                "solver failures  0",
+                "wall time",
+            ] {
                 assert!(stdout.contains(key), "missing `{key}` in:\n{stdout}");
             }
             let meta = std::fs::metadata(&out).unwrap();
@@ -125,9 +177,16 @@ mod cli {
         }
         let csv = std::fs::read_to_string(dir.join("ball.csv")).unwrap();
         let header = csv.lines().next().unwrap();
-        assert!(header.starts_with("t,energy,ball.x,ball.y,ball.z,ball.qw"), "{header}");
+        assert!(
+            header.starts_with("t,energy,ball.x,ball.y,ball.z,ball.qw"),
+            "{header}"
+        );
         assert!(header.contains("floor.gap") && header.contains("floor.pn"));
-        assert_eq!(csv.lines().count(), 1 + 1001, "initial row + every 10th of 10000 steps");
+        assert_eq!(
+            csv.lines().count(),
+            1 + 1001,
+            "initial row + every 10th of 10000 steps"
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 
@@ -140,7 +199,12 @@ mod cli {
         let o = mc_study(&["simulate", path.to_str().unwrap()]);
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains("bad.yaml:4:") && err.contains("bodies[0].mass") && err.contains("must be positive"), "{err}");
+        assert!(
+            err.contains("bad.yaml:4:")
+                && err.contains("bodies[0].mass")
+                && err.contains("must be positive"),
+            "{err}"
+        );
         assert!(!err.contains("Stack backtrace"), "{err}");
         let o = mc_study(&["simulate", "no/such/scene.yaml"]);
         assert!(!o.status.success());

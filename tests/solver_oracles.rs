@@ -6,12 +6,24 @@ use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn random_instance(rng: &mut ChaCha8Rng, n: usize, frictionless: bool) -> (DMatrix<f64>, DVector<f64>, Vec<f64>) {
+fn random_instance(
+    rng: &mut ChaCha8Rng,
+    n: usize,
+    frictionless: bool,
+) -> (DMatrix<f64>, DVector<f64>, Vec<f64>) {
     let m = 3 * n;
     let b = DMatrix::from_fn(m, m, |_, _| rng.random_range(-1.0..1.0) / (m as f64).sqrt());
     let w = &b * b.transpose() + DMatrix::identity(m, m) * 0.5;
     let q = DVector::from_fn(m, |_, _| rng.random_range(-1.0..1.0));
-    let mu = (0..n).map(|_| if frictionless { 0.0 } else { rng.random_range(0.05..1.0) }).collect();
+    let mu = (0..n)
+        .map(|_| {
+            if frictionless {
+                0.0
+            } else {
+                rng.random_range(0.05..1.0)
+            }
+        })
+        .collect();
     (w, q, mu)
 }
 
@@ -20,19 +32,38 @@ fn check_solution(w: &DMatrix<f64>, q: &DVector<f64>, mu: &[f64], r: &DVector<f6
     let u = w * r + q;
     let scale = r.amax().max(q.amax());
     for (a, &m) in mu.iter().enumerate() {
-        let (rn, rt) = (r[3 * a], (r[3 * a + 1].powi(2) + r[3 * a + 2].powi(2)).sqrt());
+        let (rn, rt) = (
+            r[3 * a],
+            (r[3 * a + 1].powi(2) + r[3 * a + 2].powi(2)).sqrt(),
+        );
         let ut = (u[3 * a + 1].powi(2) + u[3 * a + 2].powi(2)).sqrt();
         let un_hat = u[3 * a] + m * ut;
-        assert!(rn >= -tol * scale && rt <= m * rn + tol * scale, "contact {a}: r outside the cone");
+        assert!(
+            rn >= -tol * scale && rt <= m * rn + tol * scale,
+            "contact {a}: r outside the cone"
+        );
         // û ∈ K* (⇔ u_N ≥ 0) and r ⟂ û (⇔ Signorini r_N u_N = 0 with the slip rule below)
-        assert!(u[3 * a] >= -tol * scale && un_hat >= m * ut - tol * scale, "contact {a}: û outside the dual cone");
+        assert!(
+            u[3 * a] >= -tol * scale && un_hat >= m * ut - tol * scale,
+            "contact {a}: û outside the dual cone"
+        );
         let r_dot_uhat = rn * un_hat + r[3 * a + 1] * u[3 * a + 1] + r[3 * a + 2] * u[3 * a + 2];
-        assert!(r_dot_uhat.abs() <= tol * scale * scale, "contact {a}: r·û = {r_dot_uhat}");
-        assert!((rn * u[3 * a]).abs() <= tol * scale * scale, "contact {a}: r_N u_N = {}", rn * u[3 * a]);
+        assert!(
+            r_dot_uhat.abs() <= tol * scale * scale,
+            "contact {a}: r·û = {r_dot_uhat}"
+        );
+        assert!(
+            (rn * u[3 * a]).abs() <= tol * scale * scale,
+            "contact {a}: r_N u_N = {}",
+            rn * u[3 * a]
+        );
         if ut > tol * scale && m > 0.0 {
             // sliding: friction at the cone boundary, opposite to the slip
             let dot = (r[3 * a + 1] * u[3 * a + 1] + r[3 * a + 2] * u[3 * a + 2]) / ut;
-            assert!((dot + m * rn).abs() <= 1e-8 * scale, "contact {a}: friction not opposite to slip");
+            assert!(
+                (dot + m * rn).abs() <= 1e-8 * scale,
+                "contact {a}: friction not opposite to slip"
+            );
         }
     }
 }
@@ -49,9 +80,28 @@ fn random_instances_reach_the_tolerance() {
         for _ in 0..4 {
             let (w, q, mu) = random_instance(&mut rng, n, false);
             let mut r = DVector::zeros(3 * n);
-            let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &mu }, &mut r, &opts);
-            let err = natural_map_error(&Fc3d { w: &w, q: &q, mu: &mu }, &r);
-            assert!(st.converged && err < 1e-10, "n = {n}: residual {err:e} after {} sweeps", st.iterations);
+            let st = solve_fc3d(
+                &Fc3d {
+                    w: &w,
+                    q: &q,
+                    mu: &mu,
+                },
+                &mut r,
+                &opts,
+            );
+            let err = natural_map_error(
+                &Fc3d {
+                    w: &w,
+                    q: &q,
+                    mu: &mu,
+                },
+                &r,
+            );
+            assert!(
+                st.converged && err < 1e-10,
+                "n = {n}: residual {err:e} after {} sweeps",
+                st.iterations
+            );
             check_solution(&w, &q, &mu, &r, 1e-9);
             worst_sweeps = worst_sweeps.max(st.iterations);
         }
@@ -67,7 +117,15 @@ fn single_contact_stick_slip_threshold_is_exact() {
     let solve = |b: f64| {
         let q = DVector::from_vec(vec![-a, b * 0.6, b * 0.8]);
         let mut r = DVector::zeros(3);
-        let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &[mu] }, &mut r, &NsgsOptions::default());
+        let st = solve_fc3d(
+            &Fc3d {
+                w: &w,
+                q: &q,
+                mu: &[mu],
+            },
+            &mut r,
+            &NsgsOptions::default(),
+        );
         assert!(st.converged);
         (r.clone(), &w * &r + &q)
     };
@@ -78,13 +136,27 @@ fn single_contact_stick_slip_threshold_is_exact() {
     // just above: slides, friction on the cone boundary opposite to q_T
     let (r, u) = solve(threshold * (1.0 + 1e-9));
     let ut = u[1].hypot(u[2]);
-    assert!(ut > 0.0 && (ut - threshold * 1e-9).abs() < 1e-14, "slip speed {ut}");
+    assert!(
+        ut > 0.0 && (ut - threshold * 1e-9).abs() < 1e-14,
+        "slip speed {ut}"
+    );
     assert!((r[0] - a / wn).abs() < 1e-14);
-    assert!((r[1] + mu * r[0] * 0.6).abs() < 1e-14 && (r[2] + mu * r[0] * 0.8).abs() < 1e-14, "r = {r}");
+    assert!(
+        (r[1] + mu * r[0] * 0.6).abs() < 1e-14 && (r[2] + mu * r[0] * 0.8).abs() < 1e-14,
+        "r = {r}"
+    );
     // separation when the free normal velocity is positive
     let q = DVector::from_vec(vec![0.5, 1.0, 0.0]);
     let mut r = DVector::zeros(3);
-    solve_fc3d(&Fc3d { w: &w, q: &q, mu: &[mu] }, &mut r, &NsgsOptions::default());
+    solve_fc3d(
+        &Fc3d {
+            w: &w,
+            q: &q,
+            mu: &[mu],
+        },
+        &mut r,
+        &NsgsOptions::default(),
+    );
     assert_eq!(r, DVector::zeros(3));
 }
 
@@ -97,7 +169,9 @@ fn lcp_by_enumeration(m: &DMatrix<f64>, q: &DVector<f64>) -> DVector<f64> {
         if !idx.is_empty() {
             let msub = DMatrix::from_fn(idx.len(), idx.len(), |a, b| m[(idx[a], idx[b])]);
             let qsub = DVector::from_fn(idx.len(), |a, _| -q[idx[a]]);
-            let Some(sol) = msub.lu().solve(&qsub) else { continue };
+            let Some(sol) = msub.lu().solve(&qsub) else {
+                continue;
+            };
             for (a, &i) in idx.iter().enumerate() {
                 z[i] = sol[a];
             }
@@ -116,13 +190,26 @@ fn frictionless_case_equals_the_lcp_solution() {
     for n in 1..=8 {
         let (w, q, mu) = random_instance(&mut rng, n, true);
         let mut r = DVector::zeros(3 * n);
-        let st = solve_fc3d(&Fc3d { w: &w, q: &q, mu: &mu }, &mut r, &NsgsOptions::default());
+        let st = solve_fc3d(
+            &Fc3d {
+                w: &w,
+                q: &q,
+                mu: &mu,
+            },
+            &mut r,
+            &NsgsOptions::default(),
+        );
         assert!(st.converged);
         let wn = DMatrix::from_fn(n, n, |a, b| w[(3 * a, 3 * b)]);
         let qn = DVector::from_fn(n, |a, _| q[3 * a]);
         let z = lcp_by_enumeration(&wn, &qn);
         for a in 0..n {
-            assert!((r[3 * a] - z[a]).abs() < 1e-10 * (1.0 + z.amax()), "n = {n}, contact {a}: {} vs LCP {}", r[3 * a], z[a]);
+            assert!(
+                (r[3 * a] - z[a]).abs() < 1e-10 * (1.0 + z.amax()),
+                "n = {n}, contact {a}: {} vs LCP {}",
+                r[3 * a],
+                z[a]
+            );
             assert_eq!((r[3 * a + 1], r[3 * a + 2]), (0.0, 0.0));
         }
     }

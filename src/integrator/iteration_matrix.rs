@@ -20,17 +20,25 @@ enum Factor {
     Dense(LU<f64, nalgebra::Dyn, nalgebra::Dyn>),
 }
 
-pub struct IterationMatrix {
+pub struct IterationMatrix<'m> {
     n: usize,
-    mask: Vec<bool>,
+    mask: &'m [bool],
     factor: Factor,
 }
 
-impl IterationMatrix {
-    /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ.
-    pub fn assemble(model: &Model, t: f64, poses: &[Pose], v: &DVector<f64>, h: f64, theta: f64) -> Self {
+impl<'m> IterationMatrix<'m> {
+    /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ;
+    /// `mask` is `model.dof_mask()`.
+    pub fn assemble(
+        model: &Model,
+        mask: &'m [bool],
+        t: f64,
+        poses: &[Pose],
+        v: &DVector<f64>,
+        h: f64,
+        theta: f64,
+    ) -> Self {
         let n = model.bodies.len();
-        let mask = model.dof_mask();
         let mut diag = vec![Matrix6::zeros(); n];
         let mut off: BTreeMap<(usize, usize), Matrix6<f64>> = BTreeMap::new();
         for (i, b) in model.bodies.iter().enumerate() {
@@ -44,16 +52,27 @@ impl IterationMatrix {
             let mut rot = d.fixed_view_mut::<3, 3>(3, 3);
             rot += gyro * (h * theta);
         }
-        let twists = crate::mechanics::model::twists_of(v);
-        let mut buf_p = vec![Twist::zeros(); n];
-        let mut buf_m = vec![Twist::zeros(); n];
-        for f in &model.forces {
+        let stiff: Vec<_> = model
+            .forces
+            .iter()
+            .filter(|f| f.depends_on_pose() || f.depends_on_velocity())
+            .collect();
+        let twists = v.as_slice();
+        let (mut buf_p, mut buf_m) = if stiff.is_empty() {
+            (Vec::new(), Vec::new())
+        } else {
+            (vec![0.0; 6 * n], vec![0.0; 6 * n])
+        };
+        for f in stiff {
             let by_pose = f.depends_on_pose();
             let by_vel = f.depends_on_velocity();
-            if !by_pose && !by_vel {
-                continue;
-            }
-            let bodies: Vec<usize> = f.bodies().iter().flatten().copied().filter(|&i| mask[6 * i..6 * i + 6].iter().any(|&m| m)).collect();
+            let bodies: Vec<usize> = f
+                .bodies()
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|&i| mask[6 * i..6 * i + 6].iter().any(|&m| m))
+                .collect();
             for &b in &bodies {
                 for k in 0..6 {
                     if !mask[6 * b + k] {
@@ -65,26 +84,32 @@ impl IterationMatrix {
                         }
                         let mut d = Twist::zeros();
                         d[k] = FD_STEP;
-                        buf_p.iter_mut().for_each(|w| *w = Twist::zeros());
-                        buf_m.iter_mut().for_each(|w| *w = Twist::zeros());
+                        buf_p.fill(0.0);
+                        buf_m.fill(0.0);
                         if wrt_pose {
                             let mut pp = poses.to_vec();
                             let mut pm = poses.to_vec();
                             pp[b] = poses[b].advanced(&d);
                             pm[b] = poses[b].advanced(&(-d));
-                            f.apply(t, &pp, &twists, &mut buf_p);
-                            f.apply(t, &pm, &twists, &mut buf_m);
+                            f.apply(t, &pp, twists, &mut buf_p);
+                            f.apply(t, &pm, twists, &mut buf_m);
                         } else {
-                            let mut tp = twists.clone();
-                            let mut tm = twists.clone();
-                            tp[b] += d;
-                            tm[b] -= d;
+                            let mut tp = twists.to_vec();
+                            let mut tm = twists.to_vec();
+                            tp[6 * b + k] += FD_STEP;
+                            tm[6 * b + k] -= FD_STEP;
                             f.apply(t, poses, &tp, &mut buf_p);
                             f.apply(t, poses, &tm, &mut buf_m);
                         }
                         for &c in &bodies {
-                            let col = (buf_p[c] - buf_m[c]) * (-weight / (2.0 * FD_STEP));
-                            let blk = if c == b { &mut diag[c] } else { off.entry((c, b)).or_insert_with(Matrix6::zeros) };
+                            let col = (Twist::from_column_slice(&buf_p[6 * c..6 * c + 6])
+                                - Twist::from_column_slice(&buf_m[6 * c..6 * c + 6]))
+                                * (-weight / (2.0 * FD_STEP));
+                            let blk = if c == b {
+                                &mut diag[c]
+                            } else {
+                                off.entry((c, b)).or_insert_with(Matrix6::zeros)
+                            };
                             blk.column_mut(k).add_assign(&col);
                         }
                     }
@@ -132,7 +157,9 @@ impl IterationMatrix {
             Factor::Blocks(lus) => {
                 for (i, lu) in lus.iter().enumerate() {
                     let b = x.fixed_rows::<6>(6 * i).into_owned();
-                    let s = lu.solve(&b).unwrap_or_else(|| Twist::from_element(f64::NAN));
+                    let s = lu
+                        .solve(&b)
+                        .unwrap_or_else(|| Twist::from_element(f64::NAN));
                     x.fixed_rows_mut::<6>(6 * i).copy_from(&s);
                 }
             }
@@ -147,7 +174,10 @@ impl IterationMatrix {
 
     /// W⁻¹ Gᵀ for one contact with Jacobian blocks on bodies (b1, b2): the nonzero 6×3
     /// blocks per body.
-    pub fn solve_contact(&self, blocks: &[(usize, Matrix3x6<f64>)]) -> Vec<(usize, Matrix6x3<f64>)> {
+    pub fn solve_contact(
+        &self,
+        blocks: &[(usize, Matrix3x6<f64>)],
+    ) -> Vec<(usize, Matrix6x3<f64>)> {
         let masked = |b: usize, g: &Matrix3x6<f64>| {
             let mut gt = g.transpose();
             for k in 0..6 {
@@ -161,14 +191,17 @@ impl IterationMatrix {
             Factor::Blocks(lus) => blocks
                 .iter()
                 .map(|(b, g)| {
-                    let y = lus[*b].solve(&masked(*b, g)).unwrap_or_else(|| Matrix6x3::from_element(f64::NAN));
+                    let y = lus[*b]
+                        .solve(&masked(*b, g))
+                        .unwrap_or_else(|| Matrix6x3::from_element(f64::NAN));
                     (*b, y)
                 })
                 .collect(),
             Factor::Dense(lu) => {
                 let mut rhs = DMatrix::zeros(6 * self.n, 3);
                 for (b, g) in blocks {
-                    rhs.fixed_view_mut::<6, 3>(6 * b, 0).add_assign(&masked(*b, g));
+                    rhs.fixed_view_mut::<6, 3>(6 * b, 0)
+                        .add_assign(&masked(*b, g));
                 }
                 if !lu.solve_mut(&mut rhs) {
                     rhs.fill(f64::NAN);

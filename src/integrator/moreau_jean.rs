@@ -25,7 +25,13 @@ pub struct VelocityStep {
 }
 
 /// Poses at the end of the step: q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁).
-pub fn advance_poses(poses: &[Pose], v0: &DVector<f64>, v1: &DVector<f64>, h: f64, theta: f64) -> Vec<Pose> {
+pub fn advance_poses(
+    poses: &[Pose],
+    v0: &DVector<f64>,
+    v1: &DVector<f64>,
+    h: f64,
+    theta: f64,
+) -> Vec<Pose> {
     poses
         .iter()
         .enumerate()
@@ -51,9 +57,11 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
 }
 
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
-/// warm-started from `warm` (one impulse per active contact).
+/// warm-started from `warm` (one impulse per active contact). `mask` is `model.dof_mask()`.
+#[allow(clippy::too_many_arguments)]
 pub fn velocity_step(
     model: &Model,
+    mask: &[bool],
     params: &IntegrationParameters,
     t: f64,
     poses: &[Pose],
@@ -63,17 +71,19 @@ pub fn velocity_step(
 ) -> VelocityStep {
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
-    let mask = model.dof_mask();
     let mut f0 = DVector::zeros(ndof);
     model.wrench(t, poses, v0, &mut f0);
     let mut mv = DVector::zeros(ndof);
     model.mass_times(v0, &mut mv);
     let momentum_scale = mv.norm() + h * f0.norm();
 
-    let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, &mask)).collect();
+    let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
     let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
     // Newton impact law: the shift e·U_N,k on the normal rows
-    let shift: Vec<f64> = active.iter().map(|c| c.e * c.local_velocity(v0.as_slice()).x).collect();
+    let shift: Vec<f64> = active
+        .iter()
+        .map(|c| c.e * c.local_velocity(v0.as_slice()).x)
+        .collect();
     let mut r = DVector::zeros(3 * active.len());
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
@@ -97,21 +107,9 @@ pub fn velocity_step(
         resid.axpy(-h * (1.0 - theta), &f0, 1.0);
         if it > 0 {
             // converged when R(v) = Gᵀ P to the tolerance
-            let mut res = resid.clone();
-            for (c, blk) in blocks.iter().enumerate() {
-                let p = r.fixed_rows::<3>(3 * c);
-                for (b, g) in blk {
-                    let gp = g.transpose() * p;
-                    let mut seg = res.fixed_rows_mut::<6>(6 * b);
-                    seg -= gp;
-                }
-            }
-            for (k, &m) in mask.iter().enumerate() {
-                if !m {
-                    res[k] = 0.0;
-                }
-            }
-            if res.norm() <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res.norm() == 0.0 {
+            let res = newton_residual(&resid, &blocks, &r, mask);
+            if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
+            {
                 converged = true;
                 break;
             }
@@ -120,13 +118,14 @@ pub fn velocity_step(
             }
         }
         iterations += 1;
-        let w = IterationMatrix::assemble(model, t + h, &poses1, &v, h, theta);
+        let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta);
         let v_free = &v - w.solve(&resid);
         if active.is_empty() {
             v = v_free;
             continue;
         }
-        let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> = blocks.iter().map(|b| w.solve_contact(b)).collect();
+        let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
+            blocks.iter().map(|b| w.solve_contact(b)).collect();
         let n = active.len();
         let mut dmat = DMatrix::zeros(3 * n, 3 * n);
         let mut q = DVector::zeros(3 * n);
@@ -149,7 +148,15 @@ pub fn velocity_step(
                 dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
             }
         }
-        status = solve_fc3d(&Fc3d { w: &dmat, q: &q, mu: &mu }, &mut r, &params.solver);
+        status = solve_fc3d(
+            &Fc3d {
+                w: &dmat,
+                q: &q,
+                mu: &mu,
+            },
+            &mut r,
+            &params.solver,
+        );
         v = v_free;
         for (c, yc) in ys.iter().enumerate() {
             let p = r.fixed_rows::<3>(3 * c);
@@ -161,9 +168,37 @@ pub fn velocity_step(
     }
     VelocityStep {
         v,
-        impulses: (0..active.len()).map(|c| r.fixed_rows::<3>(3 * c).into_owned()).collect(),
+        impulses: (0..active.len())
+            .map(|c| r.fixed_rows::<3>(3 * c).into_owned())
+            .collect(),
         newton_iterations: iterations,
         newton_converged: converged,
         solver: status,
     }
+}
+
+/// ‖R − Σ Gᵀ P‖ over the integrated degrees of freedom.
+fn newton_residual(
+    resid: &DVector<f64>,
+    blocks: &[Vec<(usize, Matrix3x6<f64>)>],
+    r: &DVector<f64>,
+    mask: &[bool],
+) -> f64 {
+    let mut sum = 0.0;
+    for b in 0..resid.len() / 6 {
+        let mut seg = resid.fixed_rows::<6>(6 * b).into_owned();
+        for (c, blk) in blocks.iter().enumerate() {
+            for (b2, g) in blk {
+                if *b2 == b {
+                    seg -= g.transpose() * r.fixed_rows::<3>(3 * c);
+                }
+            }
+        }
+        for k in 0..6 {
+            if mask[6 * b + k] {
+                sum += seg[k] * seg[k];
+            }
+        }
+    }
+    sum.sqrt()
 }

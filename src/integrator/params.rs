@@ -77,7 +77,10 @@ impl IntegrationParameters {
             return Err(("gamma", format!("must be in [0, 1], got {}", self.gamma)));
         }
         if !(self.activation_margin.is_finite() && self.activation_margin >= 0.0) {
-            return Err(("activation_margin", format!("must be ≥ 0, got {}", self.activation_margin)));
+            return Err((
+                "activation_margin",
+                format!("must be ≥ 0, got {}", self.activation_margin),
+            ));
         }
         positive("solver.tolerance", self.solver.tolerance)?;
         positive("newton.tolerance", self.newton_tolerance)?;

@@ -44,6 +44,7 @@ pub struct Simulation {
     pub params: IntegrationParameters,
     pub state: State,
     candidates: Vec<(usize, usize)>,
+    mask: Vec<bool>,
     points: Vec<ContactPoint>,
     impulses: Vec<Vector3<f64>>,
     t0: f64,
@@ -52,10 +53,13 @@ pub struct Simulation {
 
 impl Simulation {
     pub fn new(model: Model, params: IntegrationParameters) -> Result<Self, SimError> {
-        params.validate().map_err(|(f, m)| SimError::Parameters(f, m))?;
+        params
+            .validate()
+            .map_err(|(f, m)| SimError::Parameters(f, m))?;
         let state = model.initial_state();
         let candidates = model.contact_candidates();
         let mut sim = Simulation {
+            mask: model.dof_mask(),
             impulses: vec![Vector3::zeros(); candidates.len()],
             points: Vec::new(),
             candidates,
@@ -71,11 +75,12 @@ impl Simulation {
 
     fn update_geometry(&mut self) {
         let poses = &self.state.poses;
-        self.points = self
-            .candidates
-            .iter()
-            .map(|&(c, k)| self.model.contacts[c].evaluate(k, poses))
-            .collect();
+        self.points.clear();
+        self.points.extend(
+            self.candidates
+                .iter()
+                .map(|&(c, k)| self.model.contacts[c].evaluate(k, poses)),
+        );
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
@@ -108,13 +113,23 @@ impl Simulation {
             Scheme::MoreauJean => (0..self.points.len())
                 .filter(|&i| {
                     let c = &self.points[i];
-                    c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
+                    c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x
+                        <= p.activation_margin
                 })
                 .collect(),
         };
         let refs: Vec<&ContactPoint> = active.iter().map(|&i| &self.points[i]).collect();
         let warm: Vec<Vector3<f64>> = active.iter().map(|&i| self.impulses[i]).collect();
-        let vs = velocity_step(&self.model, p, self.state.t, &self.state.poses, v0, &refs, &warm);
+        let vs = velocity_step(
+            &self.model,
+            &self.mask,
+            p,
+            self.state.t,
+            &self.state.poses,
+            v0,
+            &refs,
+            &warm,
+        );
         if vs.v.iter().any(|x| !x.is_finite()) {
             return Err(SimError::NonFinite {
                 t: self.state.t,
@@ -148,7 +163,11 @@ impl Simulation {
     }
 
     /// Steps until `t_end` (to the nearest step), calling `observe` after every step.
-    pub fn run_until(&mut self, t_end: f64, mut observe: impl FnMut(&Simulation, &StepReport)) -> Result<(), SimError> {
+    pub fn run_until(
+        &mut self,
+        t_end: f64,
+        mut observe: impl FnMut(&Simulation, &StepReport),
+    ) -> Result<(), SimError> {
         let n = ((t_end - self.state.t) / self.params.h).round().max(0.0) as u64;
         for _ in 0..n {
             let r = self.step()?;

@@ -91,7 +91,9 @@ mod tests {
             let (t1, t2) = tangent_basis(&n);
             assert_relative_eq!(t1.norm(), 1.0, epsilon = 1e-15);
             assert_relative_eq!(t2.norm(), 1.0, epsilon = 1e-15);
-            assert!(n.dot(&t1).abs() < 1e-15 && n.dot(&t2).abs() < 1e-15 && t1.dot(&t2).abs() < 1e-15);
+            assert!(
+                n.dot(&t1).abs() < 1e-15 && n.dot(&t2).abs() < 1e-15 && t1.dot(&t2).abs() < 1e-15
+            );
             assert_relative_eq!(n.cross(&t1), t2, epsilon = 1e-15);
         }
     }

@@ -60,10 +60,17 @@ pub enum Motion {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
     /// Full side lengths along the body axes.
-    Box { size: Vector3<f64> },
+    Box {
+        size: Vector3<f64>,
+    },
     /// Axis along body z.
-    Cylinder { radius: f64, length: f64 },
-    Sphere { radius: f64 },
+    Cylinder {
+        radius: f64,
+        length: f64,
+    },
+    Sphere {
+        radius: f64,
+    },
 }
 
 impl Shape {

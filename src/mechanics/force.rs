@@ -101,8 +101,10 @@ fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
     r.map_or(Pose::identity(), |i| poses[i])
 }
 
-fn twist_of(r: BodyRef, twists: &[Twist]) -> Twist {
-    r.map_or(Twist::zeros(), |i| twists[i])
+fn twist_of(r: BodyRef, v: &[f64]) -> Twist {
+    r.map_or(Twist::zeros(), |i| {
+        Twist::from_column_slice(&v[6 * i..6 * i + 6])
+    })
 }
 
 /// Velocity of the material point currently at `x` (inertial) of a body.
@@ -112,23 +114,24 @@ fn point_velocity(pose: &Pose, tw: &Twist, x: &Vector3<f64>) -> Vector3<f64> {
 }
 
 /// Adds the generalized wrench of an inertial force `f` applied at inertial point `x`.
-fn add_point_force(out: &mut [Twist], r: BodyRef, pose: &Pose, x: &Vector3<f64>, f: &Vector3<f64>) {
+fn add_point_force(out: &mut [f64], r: BodyRef, pose: &Pose, x: &Vector3<f64>, f: &Vector3<f64>) {
     if let Some(i) = r {
         let torque_body = pose.p.inverse_transform_vector(&(x - pose.x).cross(f));
-        let w = &mut out[i];
-        w.fixed_rows_mut::<3>(0).add_assign(f);
-        w.fixed_rows_mut::<3>(3).add_assign(&torque_body);
+        for k in 0..3 {
+            out[6 * i + k] += f[k];
+            out[6 * i + 3 + k] += torque_body[k];
+        }
     }
 }
 
-fn add_torque(out: &mut [Twist], r: BodyRef, pose: &Pose, torque_world: &Vector3<f64>) {
+fn add_torque(out: &mut [f64], r: BodyRef, pose: &Pose, torque_world: &Vector3<f64>) {
     if let Some(i) = r {
         let tb = pose.p.inverse_transform_vector(torque_world);
-        out[i].fixed_rows_mut::<3>(3).add_assign(&tb);
+        for k in 0..3 {
+            out[6 * i + 3 + k] += tb[k];
+        }
     }
 }
-
-use std::ops::AddAssign;
 
 impl PointSpring {
     fn length(&self, poses: &[Pose]) -> (Vector3<f64>, Vector3<f64>, f64) {
@@ -209,8 +212,9 @@ impl Force {
         }
     }
 
-    /// Adds the element's generalized wrench at time `t` to `out` (one 6-vector per body).
-    pub fn apply(&self, t: f64, poses: &[Pose], twists: &[Twist], out: &mut [Twist]) {
+    /// Adds the element's generalized wrench at time `t` to `out`, given the generalized
+    /// velocity `twists` (both 6 entries per body: inertial force, body-frame torque).
+    pub fn apply(&self, t: f64, poses: &[Pose], twists: &[f64], out: &mut [f64]) {
         match self {
             Force::Spring(s) => {
                 let (xa, xb, l) = s.length(poses);
@@ -277,7 +281,9 @@ impl Force {
                 s.preload * d + 0.5 * s.stiffness * d * d
             }
             Force::External(l) => match (&l.force, l.frame) {
-                (Some(Profile::Constant(f)), Frame::World) => -f.dot(&poses[l.body].point(&l.point)),
+                (Some(Profile::Constant(f)), Frame::World) => {
+                    -f.dot(&poses[l.body].point(&l.point))
+                }
                 _ => 0.0,
             },
         }
@@ -304,8 +310,8 @@ mod tests {
     }
 
     fn check_gradient(f: &Force, poses: &[Pose], dofs: &[usize]) {
-        let mut w = vec![Twist::zeros(); 2];
-        f.apply(0.0, poses, &[Twist::zeros(); 2], &mut w);
+        let mut w = [0.0; 12];
+        f.apply(0.0, poses, &[0.0; 12], &mut w);
         for b in 0..2 {
             for &k in dofs {
                 let eps = 1e-6;
@@ -316,9 +322,9 @@ mod tests {
                 minus[b] = poses[b].advanced(&(-d));
                 let grad = (f.potential(&plus) - f.potential(&minus)) / (2.0 * eps);
                 assert!(
-                    (w[b][k] + grad).abs() < 1e-6 * (1.0 + grad.abs()),
+                    (w[6 * b + k] + grad).abs() < 1e-6 * (1.0 + grad.abs()),
                     "{f:?} body {b} dof {k}: wrench {} vs -dV {}",
-                    w[b][k],
+                    w[6 * b + k],
                     -grad
                 );
             }
@@ -363,8 +369,14 @@ mod tests {
         // A torsional spring acts about its axis: both bodies share body-z as the axis.
         let rz = |a: f64| UnitQuaternion::from_euler_angles(0.0, 0.0, a);
         let start = vec![
-            Pose { x: Vector3::zeros(), p: rz(0.3) },
-            Pose { x: Vector3::new(0.2, 0.0, 0.0), p: rz(0.3) },
+            Pose {
+                x: Vector3::zeros(),
+                p: rz(0.3),
+            },
+            Pose {
+                x: Vector3::new(0.2, 0.0, 0.0),
+                p: rz(0.3),
+            },
         ];
         let tors = Force::Torsional(TorsionalSpring::new(
             Some(0),
@@ -376,7 +388,13 @@ mod tests {
             0.4,
             0.1,
         ));
-        let turned = vec![start[0], Pose { x: start[1].x, p: rz(1.1) }];
+        let turned = vec![
+            start[0],
+            Pose {
+                x: start[1].x,
+                p: rz(1.1),
+            },
+        ];
         if let Force::Torsional(s) = &tors {
             assert_relative_eq!(s.angle(&turned).0, 0.8, epsilon = 1e-14);
         }

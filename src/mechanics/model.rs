@@ -5,6 +5,7 @@
 use super::body::{Motion, Pose, RigidBody};
 use super::contact::ContactPair;
 use super::force::{Force, Twist};
+
 use nalgebra::{DVector, Vector3};
 
 /// A body index, or `None` for the ground (the fixed inertial frame).
@@ -38,7 +39,10 @@ impl State {
 }
 
 pub(crate) fn twists_of(v: &DVector<f64>) -> Vec<Twist> {
-    v.as_slice().chunks_exact(6).map(Twist::from_column_slice).collect()
+    v.as_slice()
+        .chunks_exact(6)
+        .map(Twist::from_column_slice)
+        .collect()
 }
 
 impl Model {
@@ -90,23 +94,28 @@ impl Model {
     /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ and the force elements.
     /// Entries of held degrees of freedom are zero.
     pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
-        let twists = twists_of(v);
-        let mut w = vec![Twist::zeros(); self.bodies.len()];
+        out.fill(0.0);
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion == Motion::Fixed {
                 continue;
             }
-            w[i].fixed_rows_mut::<3>(0).copy_from(&(self.gravity * b.mass));
-            let om = twists[i].fixed_rows::<3>(3).into_owned();
-            w[i].fixed_rows_mut::<3>(3).copy_from(&(-om.cross(&(b.inertia * om))));
+            let om = v.fixed_rows::<3>(6 * i + 3).into_owned();
+            let gyro = -om.cross(&(b.inertia * om));
+            out.fixed_rows_mut::<3>(6 * i)
+                .copy_from(&(self.gravity * b.mass));
+            out.fixed_rows_mut::<3>(6 * i + 3).copy_from(&gyro);
         }
         for f in &self.forces {
-            f.apply(t, poses, &twists, &mut w);
+            f.apply(t, poses, v.as_slice(), out.as_mut_slice());
         }
         for (i, b) in self.bodies.iter().enumerate() {
-            let mask = b.dof_mask();
-            for k in 0..6 {
-                out[6 * i + k] = if mask[k] { w[i][k] } else { 0.0 };
+            if b.motion != Motion::Free {
+                let mask = b.dof_mask();
+                for k in 0..6 {
+                    if !mask[k] {
+                        out[6 * i + k] = 0.0;
+                    }
+                }
             }
         }
     }
@@ -119,12 +128,19 @@ impl Model {
                 continue;
             }
             let tw = state.twist(i);
-            e += b.kinetic_energy(&tw.fixed_rows::<3>(0).into_owned(), &tw.fixed_rows::<3>(3).into_owned());
+            e += b.kinetic_energy(
+                &tw.fixed_rows::<3>(0).into_owned(),
+                &tw.fixed_rows::<3>(3).into_owned(),
+            );
             if b.motion == Motion::Free {
                 e -= b.mass * self.gravity.dot(&state.poses[i].x);
             }
         }
-        e + self.forces.iter().map(|f| f.potential(&state.poses)).sum::<f64>()
+        e + self
+            .forces
+            .iter()
+            .map(|f| f.potential(&state.poses))
+            .sum::<f64>()
     }
 
     /// `(pair, candidate)` for every candidate contact point, in a fixed order.

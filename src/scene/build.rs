@@ -6,7 +6,9 @@ use super::units::{Dim, Quantity};
 use super::Scene;
 use crate::integrator::{IntegrationParameters, Scheme};
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
-use crate::mechanics::{BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Shape};
+use crate::mechanics::{
+    BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Shape,
+};
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde_saphyr::Spanned;
 
@@ -17,7 +19,10 @@ fn line<T>(s: &Spanned<T>) -> Option<u64> {
 }
 
 fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
-    let v = q.value.value(dim).map_err(|m| SceneError::at(line(q), field, m))?;
+    let v = q
+        .value
+        .value(dim)
+        .map_err(|m| SceneError::at(line(q), field, m))?;
     if !v.is_finite() {
         return Err(SceneError::at(line(q), field, "must be a finite number"));
     }
@@ -27,7 +32,11 @@ fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
 fn positive(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = scalar(q, dim, field)?;
     if v <= 0.0 {
-        return Err(SceneError::at(line(q), field, format!("must be positive, got {v}")));
+        return Err(SceneError::at(
+            line(q),
+            field,
+            format!("must be positive, got {v}"),
+        ));
     }
     Ok(v)
 }
@@ -35,19 +44,29 @@ fn positive(q: &Q, dim: Dim, field: &str) -> R<f64> {
 fn non_negative(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = scalar(q, dim, field)?;
     if v < 0.0 {
-        return Err(SceneError::at(line(q), field, format!("must be ≥ 0, got {v}")));
+        return Err(SceneError::at(
+            line(q),
+            field,
+            format!("must be ≥ 0, got {v}"),
+        ));
     }
     Ok(v)
 }
 
 fn values(v: &Vector, dim: Dim, field: &str, len: usize) -> R<Vec<f64>> {
     if v.value.len() != len {
-        return Err(SceneError::at(line(v), field, format!("needs {len} components, got {}", v.value.len())));
+        return Err(SceneError::at(
+            line(v),
+            field,
+            format!("needs {len} components, got {}", v.value.len()),
+        ));
     }
     v.value
         .iter()
         .map(|q: &Quantity| {
-            let x = q.value(dim).map_err(|m| SceneError::at(line(v), field, m))?;
+            let x = q
+                .value(dim)
+                .map_err(|m| SceneError::at(line(v), field, m))?;
             if x.is_finite() {
                 Ok(x)
             } else {
@@ -63,21 +82,30 @@ fn vec3(v: &Vector, dim: Dim, field: &str) -> R<Vector3<f64>> {
 }
 
 fn opt_vec3(v: &Option<Vector>, dim: Dim, field: &str) -> R<Vector3<f64>> {
-    v.as_ref().map_or(Ok(Vector3::zeros()), |v| vec3(v, dim, field))
+    v.as_ref()
+        .map_or(Ok(Vector3::zeros()), |v| vec3(v, dim, field))
 }
 
 fn unit_vec3(v: &Vector, field: &str) -> R<Vector3<f64>> {
     let x = vec3(v, Dim::NONE, field)?;
     let n = x.norm();
     if n == 0.0 {
-        return Err(SceneError::at(line(v), field, "must not be the zero vector"));
+        return Err(SceneError::at(
+            line(v),
+            field,
+            "must not be the zero vector",
+        ));
     }
     Ok(x / n)
 }
 
 fn orientation(o: &Spanned<OrientationSpec>, field: &str) -> R<UnitQuaternion<f64>> {
     let s = &o.value;
-    let given = [s.axis.is_some() || s.angle.is_some(), s.quaternion.is_some(), s.rotation_vector.is_some()];
+    let given = [
+        s.axis.is_some() || s.angle.is_some(),
+        s.quaternion.is_some(),
+        s.rotation_vector.is_some(),
+    ];
     if given.iter().filter(|&&g| g).count() != 1 {
         return Err(SceneError::at(
             line(o),
@@ -89,23 +117,32 @@ fn orientation(o: &Spanned<OrientationSpec>, field: &str) -> R<UnitQuaternion<f6
         let x = values(q, Dim::NONE, &format!("{field}.quaternion"), 4)?;
         let quat = Quaternion::new(x[0], x[1], x[2], x[3]);
         if (quat.norm() - 1.0).abs() > 1e-6 {
-            return Err(SceneError::at(line(q), format!("{field}.quaternion"), format!("must have unit norm (got {})", quat.norm())));
+            return Err(SceneError::at(
+                line(q),
+                format!("{field}.quaternion"),
+                format!("must have unit norm (got {})", quat.norm()),
+            ));
         }
         return Ok(UnitQuaternion::from_quaternion(quat));
     }
     if let Some(r) = &s.rotation_vector {
-        return Ok(crate::math::expq(&vec3(r, Dim::NONE, &format!("{field}.rotation_vector"))?));
+        return Ok(crate::math::expq(&vec3(
+            r,
+            Dim::NONE,
+            &format!("{field}.rotation_vector"),
+        )?));
     }
-    let axis = s
-        .axis
-        .as_ref()
-        .ok_or_else(|| SceneError::at(line(o), format!("{field}.axis"), "is required with `angle`"))?;
-    let angle = s
-        .angle
-        .as_ref()
-        .ok_or_else(|| SceneError::at(line(o), format!("{field}.angle"), "is required with `axis`"))?;
+    let axis = s.axis.as_ref().ok_or_else(|| {
+        SceneError::at(line(o), format!("{field}.axis"), "is required with `angle`")
+    })?;
+    let angle = s.angle.as_ref().ok_or_else(|| {
+        SceneError::at(line(o), format!("{field}.angle"), "is required with `axis`")
+    })?;
     let axis = unit_vec3(axis, &format!("{field}.axis"))?;
-    Ok(UnitQuaternion::from_axis_angle(&Unit::new_unchecked(axis), scalar(angle, Dim::NONE, &format!("{field}.angle"))?))
+    Ok(UnitQuaternion::from_axis_angle(
+        &Unit::new_unchecked(axis),
+        scalar(angle, Dim::NONE, &format!("{field}.angle"))?,
+    ))
 }
 
 fn body_ref(model: &Model, name: &Name, field: &str) -> R<BodyRef> {
@@ -117,7 +154,11 @@ fn body_ref(model: &Model, name: &Name, field: &str) -> R<BodyRef> {
         SceneError::at(
             line(name),
             field,
-            format!("unknown body `{}` (bodies: ground, {})", name.value, known.join(", ")),
+            format!(
+                "unknown body `{}` (bodies: ground, {})",
+                name.value,
+                known.join(", ")
+            ),
         )
     })
 }
@@ -126,7 +167,11 @@ fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
     let f = |s: &str| format!("bodies[{i}].{s}");
     let name = spec.name.value.clone();
     if name.is_empty() || name == "ground" {
-        return Err(SceneError::at(line(&spec.name), f("name"), "must be non-empty and not the reserved name `ground`"));
+        return Err(SceneError::at(
+            line(&spec.name),
+            f("name"),
+            "must be non-empty and not the reserved name `ground`",
+        ));
     }
     let motion = match spec.motion.as_ref().map(|m| m.value.as_str()) {
         None | Some("free") => Motion::Free,
@@ -143,28 +188,41 @@ fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
     let mut b = if motion == Motion::Fixed {
         RigidBody::fixed(name)
     } else {
-        let mass_q = spec
-            .mass
-            .as_ref()
-            .ok_or_else(|| SceneError::at(line(&spec.name), f("mass"), "is required for a moving body"))?;
+        let mass_q = spec.mass.as_ref().ok_or_else(|| {
+            SceneError::at(line(&spec.name), f("mass"), "is required for a moving body")
+        })?;
         let mass = positive(mass_q, Dim::MASS, &f("mass"))?;
         let inertia = match (&spec.inertia, &spec.shape) {
             (Some(v), _) => {
                 let m = match v.value.len() {
                     3 => Matrix3::from_diagonal(&vec3(v, Dim::INERTIA, &f("inertia"))?),
                     9 => Matrix3::from_row_slice(&values(v, Dim::INERTIA, &f("inertia"), 9)?),
-                    n => return Err(SceneError::at(line(v), f("inertia"), format!("needs 3 principal moments or 9 tensor entries, got {n}"))),
+                    n => {
+                        return Err(SceneError::at(
+                            line(v),
+                            f("inertia"),
+                            format!("needs 3 principal moments or 9 tensor entries, got {n}"),
+                        ))
+                    }
                 };
                 let sym = (m - m.transpose()).norm() <= 1e-12 * m.norm();
                 let pd = sym && m.cholesky().is_some();
                 if !pd {
-                    return Err(SceneError::at(line(v), f("inertia"), "must be symmetric positive definite"));
+                    return Err(SceneError::at(
+                        line(v),
+                        f("inertia"),
+                        "must be symmetric positive definite",
+                    ));
                 }
                 m
             }
             (None, Some(s)) => shape(&s.value, &f("shape"), line(s))?.inertia(mass),
             (None, None) => {
-                return Err(SceneError::at(line(&spec.name), f("inertia"), "give `inertia` or a `shape` to derive it from"))
+                return Err(SceneError::at(
+                    line(&spec.name),
+                    f("inertia"),
+                    "give `inertia` or a `shape` to derive it from",
+                ))
             }
         };
         RigidBody::new(name, mass, inertia).with_motion(motion)
@@ -175,7 +233,11 @@ fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
     }
     if motion != Motion::Fixed {
         b.velocity = opt_vec3(&spec.velocity, Dim::VELOCITY, &f("velocity"))?;
-        b.angular_velocity = opt_vec3(&spec.angular_velocity, Dim::ANGULAR_VELOCITY, &f("angular_velocity"))?;
+        b.angular_velocity = opt_vec3(
+            &spec.angular_velocity,
+            Dim::ANGULAR_VELOCITY,
+            &f("angular_velocity"),
+        )?;
     }
     Ok(b)
 }
@@ -185,7 +247,11 @@ fn shape(s: &ShapeSpec, field: &str, _line: Option<u64>) -> R<Shape> {
         ShapeSpec::Box { size } => {
             let v = vec3(size, Dim::LENGTH, &format!("{field}.box.size"))?;
             if v.iter().any(|&x| x <= 0.0) {
-                return Err(SceneError::at(line(size), format!("{field}.box.size"), "must be positive"));
+                return Err(SceneError::at(
+                    line(size),
+                    format!("{field}.box.size"),
+                    "must be positive",
+                ));
             }
             Shape::Box { size: v }
         }
@@ -202,7 +268,8 @@ fn shape(s: &ShapeSpec, field: &str, _line: Option<u64>) -> R<Shape> {
 fn primitive(p: &Spanned<PrimitiveSpec>, field: &str) -> R<Primitive> {
     let fl = |s: &str| format!("{field}.{s}");
     let axis_of = |a: &Option<Vector>, name: &str| -> R<Vector3<f64>> {
-        a.as_ref().map_or(Ok(Vector3::z()), |a| unit_vec3(a, &fl(name)))
+        a.as_ref()
+            .map_or(Ok(Vector3::z()), |a| unit_vec3(a, &fl(name)))
     };
     Ok(match &p.value {
         PrimitiveSpec::Sphere { radius, center } => Primitive::Sphere {
@@ -213,24 +280,44 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str) -> R<Primitive> {
             point: opt_vec3(point, Dim::LENGTH, &fl("plane.point"))?,
             normal: unit_vec3(normal, &fl("plane.normal"))?,
         },
-        PrimitiveSpec::Box { size, center, orientation: o } => {
+        PrimitiveSpec::Box {
+            size,
+            center,
+            orientation: o,
+        } => {
             let s = vec3(size, Dim::LENGTH, &fl("box.size"))?;
             if s.iter().any(|&x| x <= 0.0) {
-                return Err(SceneError::at(line(size), fl("box.size"), "must be positive"));
+                return Err(SceneError::at(
+                    line(size),
+                    fl("box.size"),
+                    "must be positive",
+                ));
             }
             Primitive::Box {
                 half_extents: s * 0.5,
                 center: opt_vec3(center, Dim::LENGTH, &fl("box.center"))?,
-                rotation: o.as_ref().map_or(Ok(UnitQuaternion::identity()), |o| orientation(o, &fl("box.orientation")))?,
+                rotation: o.as_ref().map_or(Ok(UnitQuaternion::identity()), |o| {
+                    orientation(o, &fl("box.orientation"))
+                })?,
             }
         }
-        PrimitiveSpec::Cylinder { radius, length, axis, center } => Primitive::Cylinder {
+        PrimitiveSpec::Cylinder {
+            radius,
+            length,
+            axis,
+            center,
+        } => Primitive::Cylinder {
             radius: positive(radius, Dim::LENGTH, &fl("cylinder.radius"))?,
             half_length: 0.5 * positive(length, Dim::LENGTH, &fl("cylinder.length"))?,
             axis: axis_of(axis, "cylinder.axis")?,
             center: opt_vec3(center, Dim::LENGTH, &fl("cylinder.center"))?,
         },
-        PrimitiveSpec::Capsule { radius, length, axis, center } => Primitive::Capsule {
+        PrimitiveSpec::Capsule {
+            radius,
+            length,
+            axis,
+            center,
+        } => Primitive::Capsule {
             radius: positive(radius, Dim::LENGTH, &fl("capsule.radius"))?,
             half_length: 0.5 * non_negative(length, Dim::LENGTH, &fl("capsule.length"))?,
             axis: axis_of(axis, "capsule.axis")?,
@@ -246,14 +333,26 @@ fn table(t: &Spanned<Vec<Vec<Quantity>>>, dim: Dim, field: &str) -> R<Profile> {
     let mut rows = Vec::new();
     for (k, row) in t.value.iter().enumerate() {
         if row.len() != 4 {
-            return Err(SceneError::at(line(t), format!("{field}[{k}]"), "rows are [t, x, y, z]"));
+            return Err(SceneError::at(
+                line(t),
+                format!("{field}[{k}]"),
+                "rows are [t, x, y, z]",
+            ));
         }
         let err = |m: String| SceneError::at(line(t), format!("{field}[{k}]"), m);
         let time = row[0].value(Dim::TIME).map_err(err)?;
-        let v = Vector3::new(row[1].value(dim).map_err(err)?, row[2].value(dim).map_err(err)?, row[3].value(dim).map_err(err)?);
+        let v = Vector3::new(
+            row[1].value(dim).map_err(err)?,
+            row[2].value(dim).map_err(err)?,
+            row[3].value(dim).map_err(err)?,
+        );
         if let Some((prev, _)) = rows.last() {
             if time <= *prev {
-                return Err(SceneError::at(line(t), format!("{field}[{k}]"), "times must increase strictly"));
+                return Err(SceneError::at(
+                    line(t),
+                    format!("{field}[{k}]"),
+                    "times must increase strictly",
+                ));
             }
         }
         rows.push((time, v));
@@ -264,27 +363,41 @@ fn table(t: &Spanned<Vec<Vec<Quantity>>>, dim: Dim, field: &str) -> R<Profile> {
     Ok(Profile::Table(rows))
 }
 
-fn profile(constant: &Option<Vector>, tab: &Option<Spanned<Vec<Vec<Quantity>>>>, dim: Dim, field: &str) -> R<Option<Profile>> {
+fn profile(
+    constant: &Option<Vector>,
+    tab: &Option<Spanned<Vec<Vec<Quantity>>>>,
+    dim: Dim,
+    field: &str,
+) -> R<Option<Profile>> {
     match (constant, tab) {
         (Some(c), None) => Ok(Some(Profile::Constant(vec3(c, dim, field)?))),
         (None, Some(t)) => Ok(Some(table(t, dim, &format!("{field}_table"))?)),
         (None, None) => Ok(None),
-        (Some(c), Some(_)) => Err(SceneError::at(line(c), field, format!("give `{field}` or `{field}_table`, not both"))),
+        (Some(c), Some(_)) => Err(SceneError::at(
+            line(c),
+            field,
+            format!("give `{field}` or `{field}_table`, not both"),
+        )),
     }
 }
 
 fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
     let f = |s: &str| format!("forces[{i}].{s}");
-    let opt = |q: &Option<Q>, dim: Dim, name: &str| -> R<f64> { q.as_ref().map_or(Ok(0.0), |q| scalar(q, dim, &f(name))) };
+    let opt = |q: &Option<Q>, dim: Dim, name: &str| -> R<f64> {
+        q.as_ref().map_or(Ok(0.0), |q| scalar(q, dim, &f(name)))
+    };
     Ok(match spec {
         ForceSpec::Spring(s) => {
             let a = body_ref(model, &s.body_a, &f("spring.body_a"))?;
             let b = body_ref(model, &s.body_b, &f("spring.body_b"))?;
             let point_a = opt_vec3(&s.point_a, Dim::LENGTH, &f("spring.point_a"))?;
             let point_b = opt_vec3(&s.point_b, Dim::LENGTH, &f("spring.point_b"))?;
-            let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
+            let pose =
+                |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
             let initial = (pose(b).point(&point_b) - pose(a).point(&point_a)).norm();
-            let damping = s.damping.as_ref().map_or(Ok(0.0), |q| non_negative(q, Dim::DAMPING, &f("spring.damping")))?;
+            let damping = s.damping.as_ref().map_or(Ok(0.0), |q| {
+                non_negative(q, Dim::DAMPING, &f("spring.damping"))
+            })?;
             Force::Spring(PointSpring {
                 a,
                 point_a,
@@ -292,10 +405,9 @@ fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
                 point_b,
                 stiffness: non_negative(&s.stiffness, Dim::STIFFNESS, &f("spring.stiffness"))?,
                 damping,
-                rest_length: s
-                    .rest_length
-                    .as_ref()
-                    .map_or(Ok(initial), |q| non_negative(q, Dim::LENGTH, &f("spring.rest_length")))?,
+                rest_length: s.rest_length.as_ref().map_or(Ok(initial), |q| {
+                    non_negative(q, Dim::LENGTH, &f("spring.rest_length"))
+                })?,
                 preload: opt(&s.preload, Dim::FORCE, "spring.preload")?,
             })
         }
@@ -309,25 +421,40 @@ fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
                 unit_vec3(&s.axis, &f("torsional_spring.axis"))?,
                 &poses,
                 non_negative(&s.stiffness, Dim::TORQUE, &f("torsional_spring.stiffness"))?,
-                s.damping
-                    .as_ref()
-                    .map_or(Ok(0.0), |q| non_negative(q, Dim::ROTATIONAL_DAMPING, &f("torsional_spring.damping")))?,
+                s.damping.as_ref().map_or(Ok(0.0), |q| {
+                    non_negative(q, Dim::ROTATIONAL_DAMPING, &f("torsional_spring.damping"))
+                })?,
                 opt(&s.preload, Dim::TORQUE, "torsional_spring.preload")?,
                 opt(&s.rest_angle, Dim::NONE, "torsional_spring.rest_angle")?,
             ))
         }
         ForceSpec::Load(l) => {
-            let body = body_ref(model, &l.body, &f("load.body"))?
-                .ok_or_else(|| SceneError::at(line(&l.body), f("load.body"), "a load acts on a body, not on the ground"))?;
+            let body = body_ref(model, &l.body, &f("load.body"))?.ok_or_else(|| {
+                SceneError::at(
+                    line(&l.body),
+                    f("load.body"),
+                    "a load acts on a body, not on the ground",
+                )
+            })?;
             let frame = match l.frame.as_ref().map(|s| s.value.as_str()) {
                 None | Some("world") => Frame::World,
                 Some("body") => Frame::Body,
-                Some(o) => return Err(SceneError::at(l.frame.as_ref().and_then(line), f("load.frame"), format!("unknown frame `{o}` (world or body)"))),
+                Some(o) => {
+                    return Err(SceneError::at(
+                        l.frame.as_ref().and_then(line),
+                        f("load.frame"),
+                        format!("unknown frame `{o}` (world or body)"),
+                    ))
+                }
             };
             let force = profile(&l.force, &l.force_table, Dim::FORCE, &f("load.force"))?;
             let torque = profile(&l.torque, &l.torque_table, Dim::TORQUE, &f("load.torque"))?;
             if force.is_none() && torque.is_none() {
-                return Err(SceneError::at(line(&l.body), f("load"), "needs a force or a torque"));
+                return Err(SceneError::at(
+                    line(&l.body),
+                    f("load"),
+                    "needs a force or a torque",
+                ));
             }
             Force::External(ExternalLoad {
                 body,
@@ -343,7 +470,11 @@ fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
 fn count(q: &Q, field: &str) -> R<usize> {
     let v = positive(q, Dim::NONE, field)?;
     if v.fract() != 0.0 {
-        return Err(SceneError::at(line(q), field, format!("must be a whole number, got {v}")));
+        return Err(SceneError::at(
+            line(q),
+            field,
+            format!("must be a whole number, got {v}"),
+        ));
     }
     Ok(v as usize)
 }
@@ -362,7 +493,13 @@ fn integrator(spec: &IntegratorSpec) -> R<IntegrationParameters> {
     if let Some(s) = &spec.scheme {
         p.scheme = match s.value.as_str() {
             "moreau-jean" => Scheme::MoreauJean,
-            other => return Err(SceneError::at(line(s), "integrator.scheme", format!("unknown scheme `{other}` (available: moreau-jean)"))),
+            other => {
+                return Err(SceneError::at(
+                    line(s),
+                    "integrator.scheme",
+                    format!("unknown scheme `{other}` (available: moreau-jean)"),
+                ))
+            }
         };
     }
     if let Some(m) = &spec.activation_margin {
@@ -405,11 +542,19 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         ..Default::default()
     };
     if spec.bodies.is_empty() {
-        return Err(SceneError::at(None, "bodies", "a scene needs at least one body"));
+        return Err(SceneError::at(
+            None,
+            "bodies",
+            "a scene needs at least one body",
+        ));
     }
     for (i, b) in spec.bodies.iter().enumerate() {
         if model.body_index(&b.name.value).is_some() {
-            return Err(SceneError::at(line(&b.name), format!("bodies[{i}].name"), format!("duplicate body name `{}`", b.name.value)));
+            return Err(SceneError::at(
+                line(&b.name),
+                format!("bodies[{i}].name"),
+                format!("duplicate body name `{}`", b.name.value),
+            ));
         }
         model.bodies.push(body(b, i)?);
     }
@@ -420,20 +565,34 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
             Some(n) => body_ref(&model, n, &f("against"))?,
             None => None,
         };
-        let mu = c.mu.as_ref().map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
+        let mu =
+            c.mu.as_ref()
+                .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
         let e = match &c.e {
             Some(q) => {
                 let e = scalar(q, Dim::NONE, &f("e"))?;
                 if !(0.0..=1.0).contains(&e) {
-                    return Err(SceneError::at(line(q), f("e"), format!("must be in [0, 1], got {e}")));
+                    return Err(SceneError::at(
+                        line(q),
+                        f("e"),
+                        format!("must be in [0, 1], got {e}"),
+                    ));
                 }
                 e
             }
             None => 0.0,
         };
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
-        let pair = ContactPair::new(name, b1, primitive(&c.shape, &f("shape"))?, b2, primitive(&c.against_shape, &f("against_shape"))?, mu, e)
-            .map_err(|m| SceneError::at(line(&c.shape), f("shape"), m))?;
+        let pair = ContactPair::new(
+            name,
+            b1,
+            primitive(&c.shape, &f("shape"))?,
+            b2,
+            primitive(&c.against_shape, &f("against_shape"))?,
+            mu,
+            e,
+        )
+        .map_err(|m| SceneError::at(line(&c.shape), f("shape"), m))?;
         model.contacts.push(pair);
     }
     for (i, fs) in spec.forces.iter().enumerate() {
@@ -441,7 +600,11 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         model.forces.push(f);
     }
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
-    let record_every = spec.record.every.as_ref().map_or(Ok(1), |q| count(q, "record.every"))?;
+    let record_every = spec
+        .record
+        .every
+        .as_ref()
+        .map_or(Ok(1), |q| count(q, "record.every"))?;
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
         params: integrator(&spec.integrator)?,

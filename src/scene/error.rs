@@ -12,7 +12,11 @@ pub struct SceneError {
 }
 
 impl SceneError {
-    pub(crate) fn at(line: Option<u64>, field: impl Into<String>, message: impl Into<String>) -> Self {
+    pub(crate) fn at(
+        line: Option<u64>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
         SceneError {
             file: None,
             line,

@@ -29,7 +29,8 @@ pub struct Scene {
 impl Scene {
     /// Parses and validates scene YAML text; `file` names the source in error messages.
     pub fn from_yaml(text: &str, file: &str) -> Result<Scene, SceneError> {
-        let spec: SceneSpec = serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
+        let spec: SceneSpec =
+            serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
         build::build(&spec).map_err(|e| e.in_file(file))
     }
 

@@ -108,6 +108,7 @@ pub struct ContactSpec {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "lowercase")]
+#[allow(clippy::large_enum_variant)] // parsed once per scene; boxing would only obscure the schema
 pub enum PrimitiveSpec {
     Sphere {
         radius: Q,

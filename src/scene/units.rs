@@ -117,16 +117,26 @@ pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
     let split = s
         .char_indices()
         .find(|&(i, c)| {
-            !(c.is_ascii_digit() || c == '.' || c == '+' || c == '-' || ((c == 'e' || c == 'E') && i > 0 && s[i + 1..].starts_with(|d: char| d.is_ascii_digit() || d == '-' || d == '+')))
+            !(c.is_ascii_digit()
+                || c == '.'
+                || c == '+'
+                || c == '-'
+                || ((c == 'e' || c == 'E')
+                    && i > 0
+                    && s[i + 1..]
+                        .starts_with(|d: char| d.is_ascii_digit() || d == '-' || d == '+')))
         })
         .map_or(s.len(), |(i, _)| i);
     let (num, rest) = s.split_at(split);
-    let value: f64 = num
-        .parse()
-        .map_err(|_| format!("`{text}` is not a number with an optional unit (e.g. \"0.07 mm\")"))?;
+    let value: f64 = num.parse().map_err(|_| {
+        format!("`{text}` is not a number with an optional unit (e.g. \"0.07 mm\")")
+    })?;
     let rest = rest.trim();
     if rest.is_empty() {
-        return Ok(Quantity { si: value, dim: None });
+        return Ok(Quantity {
+            si: value,
+            dim: None,
+        });
     }
     let (numer, denom) = match rest.split_once('/') {
         Some((a, b)) => (a, Some(b)),
@@ -139,7 +149,11 @@ pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
         let Some(part) = part else { continue };
         for tok in part.split(['*', '·', ' ']).filter(|t| !t.is_empty()) {
             let (name, exp) = match tok.split_once('^') {
-                Some((n, e)) => (n, e.parse::<i8>().map_err(|_| format!("bad exponent in unit `{tok}` of `{text}`"))?),
+                Some((n, e)) => (
+                    n,
+                    e.parse::<i8>()
+                        .map_err(|_| format!("bad exponent in unit `{tok}` of `{text}`"))?,
+                ),
                 None => (tok, 1),
             };
             let (e10, f, d) = unit(name).ok_or_else(|| {
@@ -154,7 +168,9 @@ pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
         Some((m, e)) => (m, e.parse::<i32>().unwrap_or(0)),
         None => (num, 0),
     };
-    let scaled: f64 = format!("{mantissa}e{}", e0 + exp10).parse().unwrap_or(value * 10f64.powi(exp10));
+    let scaled: f64 = format!("{mantissa}e{}", e0 + exp10)
+        .parse()
+        .unwrap_or(value * 10f64.powi(exp10));
     Ok(Quantity {
         si: scaled * factor,
         dim: Some(dim),
@@ -173,10 +189,16 @@ impl<'de> Deserialize<'de> for Quantity {
                 Ok(Quantity { si: v, dim: None })
             }
             fn visit_i64<E: de::Error>(self, v: i64) -> Result<Quantity, E> {
-                Ok(Quantity { si: v as f64, dim: None })
+                Ok(Quantity {
+                    si: v as f64,
+                    dim: None,
+                })
             }
             fn visit_u64<E: de::Error>(self, v: u64) -> Result<Quantity, E> {
-                Ok(Quantity { si: v as f64, dim: None })
+                Ok(Quantity {
+                    si: v as f64,
+                    dim: None,
+                })
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<Quantity, E> {
                 parse_quantity(v).map_err(E::custom)
@@ -212,9 +234,14 @@ mod tests {
 
     #[test]
     fn rejects_bad_units_and_wrong_dimensions() {
-        assert!(parse_quantity("5 furlongs").unwrap_err().contains("unknown unit `furlongs`"));
+        assert!(parse_quantity("5 furlongs")
+            .unwrap_err()
+            .contains("unknown unit `furlongs`"));
         assert!(parse_quantity("abc").is_err());
-        let e = parse_quantity("5 ms").unwrap().value(Dim::LENGTH).unwrap_err();
+        let e = parse_quantity("5 ms")
+            .unwrap()
+            .value(Dim::LENGTH)
+            .unwrap_err();
         assert!(e.contains("a time") && e.contains("a length"), "{e}");
         assert_eq!(parse_quantity("5").unwrap().value(Dim::LENGTH), Ok(5.0));
     }

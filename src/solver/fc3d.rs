@@ -96,16 +96,25 @@ mod tests {
         let r = Vector3::new(1.0, 0.3, -0.2);
         assert_eq!(project_on_cone(&r, mu), r);
         // polar cone: zero
-        assert_eq!(project_on_cone(&Vector3::new(-1.0, 0.1, 0.0), mu), Vector3::zeros());
+        assert_eq!(
+            project_on_cone(&Vector3::new(-1.0, 0.1, 0.0), mu),
+            Vector3::zeros()
+        );
         // outside: lands on the boundary and the difference is normal to the cone there
         let r = Vector3::new(1.0, 2.0, 1.0);
         let p = project_on_cone(&r, mu);
         assert_relative_eq!((p.y * p.y + p.z * p.z).sqrt(), mu * p.x, epsilon = 1e-14);
         let d = r - p;
-        assert!(d.dot(&p).abs() < 1e-14, "projection residual orthogonal to the projection");
+        assert!(
+            d.dot(&p).abs() < 1e-14,
+            "projection residual orthogonal to the projection"
+        );
         // idempotent
         assert_relative_eq!(project_on_cone(&p, mu), p, epsilon = 1e-15);
         // μ = 0: the cone is the positive normal half-line
-        assert_eq!(project_on_cone(&Vector3::new(2.0, 1.0, 1.0), 0.0), Vector3::new(2.0, 0.0, 0.0));
+        assert_eq!(
+            project_on_cone(&Vector3::new(2.0, 1.0, 1.0), 0.0),
+            Vector3::new(2.0, 0.0, 0.0)
+        );
     }
 }

@@ -3,7 +3,9 @@
 //! order, so results are deterministic; the caller passes the previous impulses as the
 //! warm start.
 
-use super::fc3d::{contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus};
+use super::fc3d::{
+    contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus,
+};
 use nalgebra::{DVector, Matrix3, Vector3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,16 +36,24 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             residual: 0.0,
         };
     }
-    let blocks: Vec<Matrix3<f64>> = (0..n).map(|a| p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned()).collect();
+    let blocks: Vec<Matrix3<f64>> = (0..n)
+        .map(|a| p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned())
+        .collect();
     let mut residual = f64::INFINITY;
     for sweep in 1..=opts.max_sweeps {
-        for a in 0..n {
+        for (a, block) in blocks.iter().enumerate() {
             let o = 3 * a;
             let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
             // q_loc = q_a + Σ_{b≠a} W_ab r_b
-            let row = p.w.rows(o, 3) * &*r;
-            let qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]) + Vector3::new(row[0], row[1], row[2]) - blocks[a] * ra;
-            let sol = solve_one_contact(&blocks[a], &qloc, p.mu[a], &ra);
+            let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]) - block * ra;
+            for (j, rj) in r.iter().enumerate() {
+                if *rj != 0.0 {
+                    qloc.x += p.w[(o, j)] * rj;
+                    qloc.y += p.w[(o + 1, j)] * rj;
+                    qloc.z += p.w[(o + 2, j)] * rj;
+                }
+            }
+            let sol = solve_one_contact(block, &qloc, p.mu[a], &ra);
             r[o] = sol.x;
             r[o + 1] = sol.y;
             r[o + 2] = sol.z;
@@ -67,7 +77,12 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
 /// Exact solution of the one-contact problem u = W r + q, K* ∋ û ⟂ r ∈ K (to round-off),
 /// starting from `r0`. Tries the closed-form separation and sticking solutions first, then
 /// Alart–Curnier Newton for sliding, then the projection method if Newton stalls.
-pub fn solve_one_contact(w: &Matrix3<f64>, q: &Vector3<f64>, mu: f64, r0: &Vector3<f64>) -> Vector3<f64> {
+pub fn solve_one_contact(
+    w: &Matrix3<f64>,
+    q: &Vector3<f64>,
+    mu: f64,
+    r0: &Vector3<f64>,
+) -> Vector3<f64> {
     // separation: r = 0 is a solution iff q_N ≥ 0
     if q.x >= 0.0 {
         return Vector3::zeros();
@@ -83,7 +98,11 @@ pub fn solve_one_contact(w: &Matrix3<f64>, q: &Vector3<f64>, mu: f64, r0: &Vecto
         }
     }
     // sliding: Alart–Curnier Newton from the warm start (or the normal-only guess)
-    let start = if r0.x > 0.0 { *r0 } else { Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0) };
+    let start = if r0.x > 0.0 {
+        *r0
+    } else {
+        Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0)
+    };
     let rho_n = 1.0 / w[(0, 0)];
     let rho_t = 1.0 / w[(1, 1)].max(w[(2, 2)]);
     let scale = start.norm().max(rho_n * q.norm());
@@ -173,7 +192,13 @@ fn alart_curnier_newton(
 
 /// Projection iterations r ← P_K(r − ρ û) with the self-adaptive step of Siconos'
 /// `fc3d_projection`: slow but always converges for a positive definite block.
-fn projection_fallback(w: &Matrix3<f64>, q: &Vector3<f64>, mu: f64, mut r: Vector3<f64>, scale: f64) -> Vector3<f64> {
+fn projection_fallback(
+    w: &Matrix3<f64>,
+    q: &Vector3<f64>,
+    mu: f64,
+    mut r: Vector3<f64>,
+    scale: f64,
+) -> Vector3<f64> {
     let mut rho = contact_rho(w);
     let tol = 1e-15 * scale.max(f64::MIN_POSITIVE);
     for _ in 0..10_000 {

@@ -7,7 +7,10 @@ use std::path::Path;
 
 /// Loads a bundled scene from `studies/<name>/scene.yaml`.
 pub fn bundled(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies").join(name).join("scene.yaml");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("studies")
+        .join(name)
+        .join("scene.yaml");
     Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 

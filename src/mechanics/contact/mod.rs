@@ -110,7 +110,8 @@ impl ContactPair {
             let mut g = Matrix3x6::zeros();
             g.fixed_columns_mut::<3>(0).copy_from(&(frame * sign));
             let lever = skew(&(pose.x - geometry.point1)) * pose.p.to_rotation_matrix().matrix();
-            g.fixed_columns_mut::<3>(3).copy_from(&(frame * lever * sign));
+            g.fixed_columns_mut::<3>(3)
+                .copy_from(&(frame * lever * sign));
             g
         };
         ContactPoint {
@@ -187,11 +188,16 @@ mod tests {
             },
         ];
         let cp = pair.evaluate(0, &poses);
-        let v = [0.3, -0.2, 0.1, 1.0, -2.0, 0.5, -0.4, 0.2, 0.6, 0.7, 0.1, -1.3];
+        let v = [
+            0.3, -0.2, 0.1, 1.0, -2.0, 0.5, -0.4, 0.2, 0.6, 0.7, 0.1, -1.3,
+        ];
         let u = cp.local_velocity(&v);
         // material points of each body at the current contact point 1
         let x = cp.geometry.point1;
-        let loc: Vec<Vector3<f64>> = poses.iter().map(|p| p.p.inverse_transform_vector(&(x - p.x))).collect();
+        let loc: Vec<Vector3<f64>> = poses
+            .iter()
+            .map(|p| p.p.inverse_transform_vector(&(x - p.x)))
+            .collect();
         let eps = 1e-7;
         let moved: Vec<Vector3<f64>> = (0..2)
             .map(|b| {
@@ -201,6 +207,10 @@ mod tests {
             .collect();
         let rel = (moved[0] - moved[1]) / eps;
         assert_relative_eq!(u, cp.frame * rel, epsilon = 1e-6);
-        assert_relative_eq!(cp.gap(), (poses[0].point(&Vector3::new(0.01, 0.02, 0.0)) - poses[1].x).norm() - 0.3, epsilon = 1e-15);
+        assert_relative_eq!(
+            cp.gap(),
+            (poses[0].point(&Vector3::new(0.01, 0.02, 0.0)) - poses[1].x).norm() - 0.3,
+            epsilon = 1e-15
+        );
     }
 }

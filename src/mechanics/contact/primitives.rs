@@ -75,7 +75,12 @@ pub struct ContactGeometry {
     pub point2: Vector3<f64>,
 }
 
-fn point_plane(x: Vector3<f64>, plane_point: Vector3<f64>, n: Vector3<f64>, radius: f64) -> ContactGeometry {
+fn point_plane(
+    x: Vector3<f64>,
+    plane_point: Vector3<f64>,
+    n: Vector3<f64>,
+    radius: f64,
+) -> ContactGeometry {
     let dist = n.dot(&(x - plane_point));
     ContactGeometry {
         gap: dist - radius,
@@ -89,7 +94,16 @@ fn point_plane(x: Vector3<f64>, plane_point: Vector3<f64>, n: Vector3<f64>, radi
 /// Pairs are ordered by `ContactPair::new`, so `s2` is a plane or a sphere.
 pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -> ContactGeometry {
     match (s1, s2) {
-        (Primitive::Sphere { center: c1, radius: r1 }, Primitive::Sphere { center: c2, radius: r2 }) => {
+        (
+            Primitive::Sphere {
+                center: c1,
+                radius: r1,
+            },
+            Primitive::Sphere {
+                center: c2,
+                radius: r2,
+            },
+        ) => {
             let x1 = p1.point(c1);
             let x2 = p2.point(c2);
             let d = x1 - x2;
@@ -106,7 +120,9 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
             let n = p2.dir(&normal.normalize());
             let pp = p2.point(point);
             match s1 {
-                Primitive::Sphere { center, radius } => point_plane(p1.point(center), pp, n, *radius),
+                Primitive::Sphere { center, radius } => {
+                    point_plane(p1.point(center), pp, n, *radius)
+                }
                 Primitive::Point { position } => point_plane(p1.point(position), pp, n, 0.0),
                 Primitive::Box {
                     center,
@@ -114,7 +130,8 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     half_extents: h,
                 } => {
                     let s = |bit: usize| if k & bit != 0 { 1.0 } else { -1.0 };
-                    let corner = center + rotation * Vector3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z);
+                    let corner =
+                        center + rotation * Vector3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z);
                     point_plane(p1.point(&corner), pp, n, 0.0)
                 }
                 Primitive::Capsule {
@@ -124,7 +141,12 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     half_length,
                 } => {
                     let sign = if k == 0 { -1.0 } else { 1.0 };
-                    point_plane(p1.point(&(center + axis.normalize() * (sign * half_length))), pp, n, *radius)
+                    point_plane(
+                        p1.point(&(center + axis.normalize() * (sign * half_length))),
+                        pp,
+                        n,
+                        *radius,
+                    )
                 }
                 Primitive::Cylinder {
                     center,
@@ -137,10 +159,16 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     let end = p1.point(&(center + axis.normalize() * (sign * half_length)));
                     // deepest rim point: the in-plane direction most opposed to the normal
                     let w = -(n - a * a.dot(&n));
-                    let w = if w.norm() > 1e-12 { w.normalize() } else { any_orthogonal(&a) };
+                    let w = if w.norm() > 1e-12 {
+                        w.normalize()
+                    } else {
+                        any_orthogonal(&a)
+                    };
                     point_plane(end + w * *radius, pp, n, 0.0)
                 }
-                Primitive::Plane { .. } => unreachable!("plane–plane pairs are rejected by ContactPair::new"),
+                Primitive::Plane { .. } => {
+                    unreachable!("plane–plane pairs are rejected by ContactPair::new")
+                }
             }
         }
         _ => unreachable!("unsupported pairs are rejected by ContactPair::new"),
@@ -196,7 +224,9 @@ mod tests {
             rotation: UnitQuaternion::identity(),
             half_extents: Vector3::new(0.1, 0.1, 0.05),
         };
-        let gaps: Vec<f64> = (0..8).map(|k| closest(&b, &body, &ground(), &plane, k).gap).collect();
+        let gaps: Vec<f64> = (0..8)
+            .map(|k| closest(&b, &body, &ground(), &plane, k).gap)
+            .collect();
         for (k, g) in gaps.iter().enumerate() {
             let expect = if k & 4 == 0 { 0.0 } else { 0.1 };
             assert!((g - expect).abs() < 1e-15, "corner {k}: {g}");
@@ -226,7 +256,11 @@ mod tests {
             x: Vector3::new(0.0, 0.0, 0.2),
             p: UnitQuaternion::identity(),
         };
-        assert_relative_eq!(closest(&c, &up, &ground(), &Pose::identity(), 0).gap, 0.0, epsilon = 1e-15);
+        assert_relative_eq!(
+            closest(&c, &up, &ground(), &Pose::identity(), 0).gap,
+            0.0,
+            epsilon = 1e-15
+        );
     }
 
     #[test]
@@ -243,7 +277,11 @@ mod tests {
         };
         let g0 = closest(&cap, &pose, &ground(), &Pose::identity(), 0);
         let g1 = closest(&cap, &pose, &ground(), &Pose::identity(), 1);
-        assert_relative_eq!(g0.gap.min(g1.gap), 0.5 - 0.1 * 0.5f64.sin() - 0.02, epsilon = 1e-14);
+        assert_relative_eq!(
+            g0.gap.min(g1.gap),
+            0.5 - 0.1 * 0.5f64.sin() - 0.02,
+            epsilon = 1e-14
+        );
         let s = Primitive::Sphere {
             center: Vector3::zeros(),
             radius: 1.0,
