@@ -4,6 +4,7 @@
 pub mod iteration_matrix;
 pub mod moreau_jean;
 pub mod params;
+pub mod projection;
 pub mod simulation;
 
 pub use params::{IntegrationParameters, Scheme};

@@ -8,8 +8,9 @@
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
 use crate::mechanics::force::Twist;
+use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
-use crate::solver::{solve_fc3d, Fc3d, SolverStatus};
+use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6x3, Vector3};
 
 /// Result of the velocity step.
@@ -20,6 +21,8 @@ pub struct VelocityStep {
     pub impulses: Vec<Vector3<f64>>,
     pub newton_iterations: usize,
     pub newton_converged: bool,
+    /// Impulse of each bilateral row (joint reactions over the step).
+    pub joint_impulses: Vec<f64>,
     /// Status of the last FC3D solve (the one whose impulses are applied).
     pub solver: SolverStatus,
 }
@@ -57,7 +60,13 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
 }
 
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
-/// warm-started from `warm` (one impulse per active contact). `mask` is `model.dof_mask()`.
+/// warm-started from `warm` (one impulse per active contact), and the bilateral rows
+/// `joints` (evaluated at `poses`, rates at t + h). `mask` is `model.dof_mask()`.
+///
+/// Without joints the Delassus matrix is assembled block by block from the sparse contact
+/// Jacobians. With joints the equality rows are eliminated exactly (Schur complement,
+/// `EqualitySolver`) and the contacts see the constrained operator
+/// W⁻¹ − W⁻¹Hᵀ(HW⁻¹Hᵀ)⁻¹HW⁻¹.
 #[allow(clippy::too_many_arguments)]
 pub fn velocity_step(
     model: &Model,
@@ -68,6 +77,7 @@ pub fn velocity_step(
     v0: &DVector<f64>,
     active: &[&ContactPoint],
     warm: &[Vector3<f64>],
+    joints: &[BilateralRow],
 ) -> VelocityStep {
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
@@ -88,6 +98,8 @@ pub fn velocity_step(
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
+    let (hmat, rates) = bilateral_matrix(joints, mask, ndof);
+    let mut q_joint = DVector::zeros(joints.len());
 
     let mut v = v0.clone();
     let mut f1 = DVector::zeros(ndof);
@@ -106,8 +118,12 @@ pub fn velocity_step(
         resid.axpy(-h * theta, &f1, 1.0);
         resid.axpy(-h * (1.0 - theta), &f0, 1.0);
         if it > 0 {
-            // converged when R(v) = Gᵀ P to the tolerance
-            let res = newton_residual(&resid, &blocks, &r, mask);
+            // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
+            let mut reactions = resid.clone();
+            if !joints.is_empty() {
+                reactions -= hmat.tr_mul(&q_joint);
+            }
+            let res = newton_residual(&reactions, &blocks, &r, mask);
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
             {
                 converged = true;
@@ -120,50 +136,81 @@ pub fn velocity_step(
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta);
         let v_free = &v - w.solve(&resid);
-        if active.is_empty() {
-            v = v_free;
-            continue;
-        }
-        let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-            blocks.iter().map(|b| w.solve_contact(b)).collect();
-        let n = active.len();
-        let mut dmat = DMatrix::zeros(3 * n, 3 * n);
-        let mut q = DVector::zeros(3 * n);
-        for (c, bc) in blocks.iter().enumerate() {
-            let mut qc = Vector3::zeros();
-            for (b, g) in bc {
-                qc += g * v_free.fixed_rows::<6>(6 * b);
+        if joints.is_empty() {
+            if active.is_empty() {
+                v = v_free;
+                continue;
             }
-            qc.x += shift[c];
-            q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-            for (d, yd) in ys.iter().enumerate() {
-                let mut blk = Matrix3::zeros();
+            let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
+                blocks.iter().map(|b| w.solve_contact(b)).collect();
+            let n = active.len();
+            let mut dmat = DMatrix::zeros(3 * n, 3 * n);
+            let mut q = DVector::zeros(3 * n);
+            for (c, bc) in blocks.iter().enumerate() {
+                let mut qc = Vector3::zeros();
                 for (b, g) in bc {
-                    for (b2, y) in yd {
-                        if b == b2 {
-                            blk += g * y;
+                    qc += g * v_free.fixed_rows::<6>(6 * b);
+                }
+                qc.x += shift[c];
+                q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
+                for (d, yd) in ys.iter().enumerate() {
+                    let mut blk = Matrix3::zeros();
+                    for (b, g) in bc {
+                        for (b2, y) in yd {
+                            if b == b2 {
+                                blk += g * y;
+                            }
                         }
                     }
+                    dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
                 }
-                dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
             }
-        }
-        status = solve_fc3d(
-            &Fc3d {
-                w: &dmat,
-                q: &q,
-                mu: &mu,
-            },
-            &mut r,
-            &params.solver,
-        );
-        v = v_free;
-        for (c, yc) in ys.iter().enumerate() {
-            let p = r.fixed_rows::<3>(3 * c);
-            for (b, y) in yc {
-                let mut seg = v.fixed_rows_mut::<6>(6 * b);
-                seg += y * p;
+            status = solve_fc3d(
+                &Fc3d {
+                    w: &dmat,
+                    q: &q,
+                    mu: &mu,
+                },
+                &mut r,
+                &params.solver,
+            );
+            v = v_free;
+            for (c, yc) in ys.iter().enumerate() {
+                let p = r.fixed_rows::<3>(3 * c);
+                for (b, y) in yc {
+                    let mut seg = v.fixed_rows_mut::<6>(6 * b);
+                    seg += y * p;
+                }
             }
+        } else {
+            // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with H v = b
+            let wiht = solve_columns(&w, &hmat.transpose());
+            let schur = EqualitySolver::new(&hmat * &wiht);
+            let v_free_c = &v_free + &wiht * schur.solve(&(&rates - &hmat * &v_free));
+            if active.is_empty() {
+                q_joint = schur.solve(&(&rates - &hmat * &v_free));
+                v = v_free_c;
+                continue;
+            }
+            let gmat = contact_matrix(&blocks, ndof);
+            let y = solve_columns(&w, &gmat.transpose());
+            let y_c = &y - &wiht * schur.solve_matrix(&(&hmat * &y));
+            let dmat = &gmat * &y_c;
+            let mut q = &gmat * &v_free_c;
+            for (c, s) in shift.iter().enumerate() {
+                q[3 * c] += s;
+            }
+            status = solve_fc3d(
+                &Fc3d {
+                    w: &dmat,
+                    q: &q,
+                    mu: &mu,
+                },
+                &mut r,
+                &params.solver,
+            );
+            v = &v_free_c + &y_c * &r;
+            q_joint = schur.solve(&(&rates - &hmat * (&v_free + &y * &r)));
         }
     }
     VelocityStep {
@@ -171,10 +218,54 @@ pub fn velocity_step(
         impulses: (0..active.len())
             .map(|c| r.fixed_rows::<3>(3 * c).into_owned())
             .collect(),
+        joint_impulses: q_joint.iter().copied().collect(),
         newton_iterations: iterations,
         newton_converged: converged,
         solver: status,
     }
+}
+
+/// Dense H (rows × dofs, held dofs zeroed) and the prescribed rates b of bilateral rows.
+pub fn bilateral_matrix(
+    rows: &[BilateralRow],
+    mask: &[bool],
+    ndof: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let mut hmat = DMatrix::zeros(rows.len(), ndof);
+    for (k, row) in rows.iter().enumerate() {
+        for (b, g) in row.a.iter().chain(row.b.iter()) {
+            for j in 0..6 {
+                if mask[6 * b + j] {
+                    hmat[(k, 6 * b + j)] += g[j];
+                }
+            }
+        }
+    }
+    (
+        hmat,
+        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.rate)),
+    )
+}
+
+/// Dense G (3 rows per contact × dofs) from the sparse contact blocks.
+fn contact_matrix(blocks: &[Vec<(usize, Matrix3x6<f64>)>], ndof: usize) -> DMatrix<f64> {
+    let mut g = DMatrix::zeros(3 * blocks.len(), ndof);
+    for (c, bc) in blocks.iter().enumerate() {
+        for (b, blk) in bc {
+            let mut view = g.fixed_view_mut::<3, 6>(3 * c, 6 * b);
+            view += blk;
+        }
+    }
+    g
+}
+
+/// W⁻¹ X column by column.
+pub fn solve_columns(w: &IterationMatrix, x: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(x.nrows(), x.ncols());
+    for j in 0..x.ncols() {
+        out.set_column(j, &w.solve(&x.column(j).into_owned()));
+    }
+    out
 }
 
 /// ‖R − Σ Gᵀ P‖ over the integrated degrees of freedom.

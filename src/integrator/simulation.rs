@@ -1,12 +1,17 @@
-//! The time loop: contact detection and activation, the velocity step, the position update,
-//! and per-step diagnostics accumulated over the run.
+//! The time loop: contact activation, the velocity step, the position update and (for the
+//! projected schemes) the position projection, with per-step diagnostics accumulated over
+//! the run.
 
-use super::moreau_jean::{advance_poses, velocity_step};
+use super::moreau_jean::{advance_poses, velocity_step, VelocityStep};
 use super::params::{IntegrationParameters, Scheme};
+use super::projection::{
+    contact_normal_row, inverse_mass, project, ContactRows, ProjectionOutcome,
+};
+use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::model::State;
-use crate::mechanics::{ContactPoint, Model};
+use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::SolverStatus;
-use nalgebra::Vector3;
+use nalgebra::{Matrix6, Vector3};
 
 /// Diagnostics of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -15,6 +20,9 @@ pub struct StepReport {
     pub newton_iterations: usize,
     pub newton_converged: bool,
     pub solver: SolverStatus,
+    /// Velocity steps done (more than one when the combined scheme activated contacts).
+    pub active_set_passes: usize,
+    pub projection: ProjectionOutcome,
 }
 
 /// Diagnostics accumulated over a run.
@@ -23,12 +31,21 @@ pub struct RunStats {
     pub steps: u64,
     /// Largest −gap seen over all contact candidates at the step ends (m); 0 if none.
     pub max_penetration: f64,
+    /// Largest joint anchor separation at the step ends (m).
+    pub max_joint_violation: f64,
+    /// Largest joint angle violation at the step ends (rad).
+    pub max_joint_angle_violation: f64,
     /// Steps whose contact solver did not reach its tolerance.
     pub solver_failures: u64,
     /// Steps whose Newton loop did not reach its tolerance.
     pub newton_failures: u64,
+    /// Steps whose projection did not reach its tolerance (or whose activation loop did not
+    /// settle).
+    pub projection_failures: u64,
     pub max_solver_residual: f64,
     pub max_active_contacts: usize,
+    pub max_active_set_passes: usize,
+    pub max_projection_iterations: usize,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -45,10 +62,28 @@ pub struct Simulation {
     pub state: State,
     candidates: Vec<(usize, usize)>,
     mask: Vec<bool>,
+    minv: Vec<Matrix6<f64>>,
     points: Vec<ContactPoint>,
     impulses: Vec<Vector3<f64>>,
+    joint_impulses: Vec<f64>,
+    /// Candidates in the velocity problem of the last step.
+    active: Vec<usize>,
     t0: f64,
     pub stats: RunStats,
+}
+
+fn evaluate(
+    model: &Model,
+    candidates: &[(usize, usize)],
+    poses: &[Pose],
+    out: &mut Vec<ContactPoint>,
+) {
+    out.clear();
+    out.extend(
+        candidates
+            .iter()
+            .map(|&(c, k)| model.contacts[c].evaluate(k, poses)),
+    );
 }
 
 impl Simulation {
@@ -58,9 +93,13 @@ impl Simulation {
             .map_err(|(f, m)| SimError::Parameters(f, m))?;
         let state = model.initial_state();
         let candidates = model.contact_candidates();
+        let mask = model.dof_mask();
         let mut sim = Simulation {
-            mask: model.dof_mask(),
+            minv: inverse_mass(&model, &mask),
+            mask,
             impulses: vec![Vector3::zeros(); candidates.len()],
+            joint_impulses: Vec::new(),
+            active: Vec::new(),
             points: Vec::new(),
             candidates,
             t0: state.t,
@@ -74,15 +113,31 @@ impl Simulation {
     }
 
     fn update_geometry(&mut self) {
-        let poses = &self.state.poses;
-        self.points.clear();
-        self.points.extend(
-            self.candidates
-                .iter()
-                .map(|&(c, k)| self.model.contacts[c].evaluate(k, poses)),
+        evaluate(
+            &self.model,
+            &self.candidates,
+            &self.state.poses,
+            &mut self.points,
         );
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
+        }
+        if !self.model.joints.is_empty() {
+            let mut rows = Vec::new();
+            for j in &self.model.joints {
+                j.rows(self.state.t, &self.state.poses, &mut rows);
+            }
+            for r in rows {
+                let s = &mut self.stats;
+                match r.unit {
+                    RowUnit::Length => {
+                        s.max_joint_violation = s.max_joint_violation.max(r.value.abs())
+                    }
+                    RowUnit::Angle => {
+                        s.max_joint_angle_violation = s.max_joint_angle_violation.max(r.value.abs())
+                    }
+                }
+            }
         }
     }
 
@@ -101,46 +156,113 @@ impl Simulation {
         &self.impulses
     }
 
+    /// Impulses of the joints' bilateral rows over the last step, in row order.
+    pub fn joint_impulses(&self) -> &[f64] {
+        &self.joint_impulses
+    }
+
     pub fn energy(&self) -> f64 {
         self.model.energy(&self.state)
     }
 
-    /// Advances one step of size h.
-    pub fn step(&mut self) -> Result<StepReport, SimError> {
-        let p = &self.params;
-        let v0 = &self.state.v;
-        let active: Vec<usize> = match p.scheme {
-            Scheme::MoreauJean => (0..self.points.len())
-                .filter(|&i| {
-                    let c = &self.points[i];
-                    c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x
-                        <= p.activation_margin
-                })
-                .collect(),
-        };
+    fn joint_rows(&self, t_rates: f64) -> Vec<BilateralRow> {
+        let mut rows = Vec::new();
+        for j in &self.model.joints {
+            j.rows(t_rates, &self.state.poses, &mut rows);
+        }
+        rows
+    }
+
+    fn velocity(&self, active: &[usize], joints: &[BilateralRow]) -> VelocityStep {
         let refs: Vec<&ContactPoint> = active.iter().map(|&i| &self.points[i]).collect();
         let warm: Vec<Vector3<f64>> = active.iter().map(|&i| self.impulses[i]).collect();
-        let vs = velocity_step(
+        velocity_step(
             &self.model,
             &self.mask,
-            p,
+            &self.params,
             self.state.t,
             &self.state.poses,
-            v0,
+            &self.state.v,
             &refs,
             &warm,
-        );
-        if vs.v.iter().any(|x| !x.is_finite()) {
+            joints,
+        )
+    }
+
+    /// Projects `poses` at t + h: joints, plus the contacts chosen by `which` (given the
+    /// contact points at those poses).
+    fn project_poses(
+        &self,
+        poses: &mut [Pose],
+        which: &dyn Fn(usize, &ContactPoint) -> bool,
+        mode: ContactRows,
+    ) -> ProjectionOutcome {
+        let model = &self.model;
+        let candidates = &self.candidates;
+        let rows = |ps: &[Pose]| -> Vec<BilateralRow> {
+            let mut pts = Vec::new();
+            evaluate(model, candidates, ps, &mut pts);
+            pts.iter()
+                .enumerate()
+                .filter(|(i, cp)| which(*i, cp))
+                .map(|(_, cp)| contact_normal_row(cp))
+                .collect()
+        };
+        project(
+            model,
+            &self.mask,
+            &self.minv,
+            self.state.t + self.params.h,
+            poses,
+            &rows,
+            mode,
+            self.params.projection_tolerance,
+            self.params.projection_max_iterations,
+        )
+    }
+
+    /// Advances one step of size h.
+    pub fn step(&mut self) -> Result<StepReport, SimError> {
+        let p = self.params.clone();
+        let joints = self.joint_rows(self.state.t + p.h);
+        let v0 = &self.state.v;
+        let forecast = |c: &ContactPoint| {
+            c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
+        };
+        let mut report = StepReport::default();
+        let (active, vs, poses) = match p.scheme {
+            Scheme::MoreauJean | Scheme::DirectProjection => {
+                let active: Vec<usize> = (0..self.points.len())
+                    .filter(|&i| forecast(&self.points[i]))
+                    .collect();
+                let vs = self.velocity(&active, &joints);
+                let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
+                report.active_set_passes = 1;
+                if p.scheme == Scheme::DirectProjection {
+                    let set: Vec<bool> = (0..self.points.len())
+                        .map(|i| active.contains(&i))
+                        .collect();
+                    report.projection =
+                        self.project_poses(&mut poses, &|i, _| set[i], ContactRows::Inequality);
+                }
+                (active, vs, poses)
+            }
+            Scheme::CombinedProjection => self.combined(&joints, &mut report),
+        };
+        if vs.v.iter().any(|x| !x.is_finite())
+            || poses.iter().any(|q| !q.x.iter().all(|x| x.is_finite()))
+        {
             return Err(SimError::NonFinite {
                 t: self.state.t,
                 step: self.stats.steps,
             });
         }
-        let poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
         self.impulses.iter_mut().for_each(|x| *x = Vector3::zeros());
         for (&i, imp) in active.iter().zip(&vs.impulses) {
             self.impulses[i] = *imp;
         }
+        self.joint_impulses = vs.joint_impulses.clone();
+        self.active = active;
         self.stats.steps += 1;
         self.state = State {
             t: self.t0 + self.stats.steps as f64 * p.h,
@@ -148,18 +270,76 @@ impl Simulation {
             v: vs.v,
         };
         self.update_geometry();
-        let report = StepReport {
-            active_contacts: active.len(),
-            newton_iterations: vs.newton_iterations,
-            newton_converged: vs.newton_converged,
-            solver: vs.solver,
-        };
+        report.active_contacts = self.active.len();
+        report.newton_iterations = vs.newton_iterations;
+        report.newton_converged = vs.newton_converged;
+        report.solver = vs.solver;
         let s = &mut self.stats;
         s.solver_failures += u64::from(!report.solver.converged);
         s.newton_failures += u64::from(!report.newton_converged);
+        let projected = p.scheme != Scheme::MoreauJean;
+        s.projection_failures += u64::from(projected && !report.projection.converged);
         s.max_solver_residual = s.max_solver_residual.max(report.solver.residual);
         s.max_active_contacts = s.max_active_contacts.max(report.active_contacts);
+        s.max_active_set_passes = s.max_active_set_passes.max(report.active_set_passes);
+        s.max_projection_iterations = s
+            .max_projection_iterations
+            .max(report.projection.iterations);
         Ok(report)
+    }
+
+    /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
+    /// previous step's active set (kept while pressed or closed).
+    fn combined(
+        &self,
+        joints: &[BilateralRow],
+        report: &mut StepReport,
+    ) -> (Vec<usize>, VelocityStep, Vec<Pose>) {
+        let p = &self.params;
+        let mut active: Vec<usize> = self
+            .active
+            .iter()
+            .copied()
+            .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
+            .collect();
+        let mut settled = false;
+        let mut result = None;
+        for pass in 1..=p.max_active_set_passes {
+            let vs = self.velocity(&active, joints);
+            let mut poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
+            // project the active contacts that are pressed or penetrating, as equalities
+            let pressed: Vec<bool> = {
+                let mut flags = vec![false; self.points.len()];
+                for (k, &i) in active.iter().enumerate() {
+                    flags[i] = vs.impulses[k].x > 0.0;
+                }
+                flags
+            };
+            let in_active: Vec<bool> = (0..self.points.len())
+                .map(|i| active.contains(&i))
+                .collect();
+            let selected =
+                |i: usize, cp: &ContactPoint| in_active[i] && (pressed[i] || cp.gap() < 0.0);
+            report.projection = self.project_poses(&mut poses, &selected, ContactRows::Equality);
+            report.active_set_passes = pass;
+            // activation from the end-of-step position
+            let mut after = Vec::new();
+            evaluate(&self.model, &self.candidates, &poses, &mut after);
+            let new: Vec<usize> = (0..after.len())
+                .filter(|&i| !in_active[i] && after[i].gap() <= 0.0)
+                .collect();
+            result = Some((active.clone(), vs, poses));
+            if new.is_empty() {
+                settled = true;
+                break;
+            }
+            active.extend(new);
+            active.sort_unstable();
+        }
+        if !settled {
+            report.projection.converged = false;
+        }
+        result.expect("at least one pass")
     }
 
     /// Steps until `t_end` (to the nearest step), calling `observe` after every step.

@@ -3,6 +3,7 @@
 pub mod body;
 pub mod contact;
 pub mod force;
+pub mod joint;
 pub mod model;
 
 pub use body::{Motion, Pose, RigidBody, Shape};

@@ -5,7 +5,7 @@
 use super::body::{Motion, Pose, RigidBody};
 use super::contact::ContactPair;
 use super::force::{Force, Twist};
-
+use super::joint::Joint;
 use nalgebra::{DVector, Vector3};
 
 /// A body index, or `None` for the ground (the fixed inertial frame).
@@ -17,6 +17,7 @@ pub struct Model {
     pub gravity: Vector3<f64>,
     pub forces: Vec<Force>,
     pub contacts: Vec<ContactPair>,
+    pub joints: Vec<Joint>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
@@ -107,6 +108,9 @@ impl Model {
         }
         for f in &self.forces {
             f.apply(t, poses, v.as_slice(), out.as_mut_slice());
+        }
+        for j in &self.joints {
+            j.apply_effort(t, poses, out.as_mut_slice());
         }
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion != Motion::Free {

@@ -26,7 +26,41 @@ pub struct SceneSpec {
     #[serde(default)]
     pub forces: Vec<ForceSpec>,
     #[serde(default)]
+    pub joints: Vec<JointSpec>,
+    #[serde(default)]
     pub record: RecordSpec,
+}
+
+/// An ideal joint. The anchor and axis are given either in world coordinates at the
+/// assembled configuration (`anchor`, `axis`) or in each body's frame
+/// (`anchor_a`/`anchor_b`, `axis_a`/`axis_b`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    pub name: Name,
+    /// `revolute`, `prismatic`, `spherical` or `fixed`.
+    #[serde(rename = "type")]
+    pub kind: Name,
+    pub body_a: Name,
+    pub body_b: Name,
+    pub anchor: Option<Vector>,
+    pub axis: Option<Vector>,
+    pub anchor_a: Option<Vector>,
+    pub anchor_b: Option<Vector>,
+    pub axis_a: Option<Vector>,
+    pub axis_b: Option<Vector>,
+    pub drive: Option<Spanned<DriveSpec>>,
+}
+
+/// Exactly one of: `velocity` (constant rate of the joint coordinate from assembly),
+/// `position_table` (rows [t, q]), `effort` (torque or force), `effort_table` (rows [t, f]).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriveSpec {
+    pub velocity: Option<Q>,
+    pub position_table: Option<Spanned<Vec<Vec<Quantity>>>>,
+    pub effort: Option<Q>,
+    pub effort_table: Option<Spanned<Vec<Vec<Quantity>>>>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -39,6 +73,7 @@ pub struct IntegratorSpec {
     pub activation_margin: Option<Q>,
     pub solver: Option<ToleranceSpec>,
     pub newton: Option<ToleranceSpec>,
+    pub projection: Option<ToleranceSpec>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -5,7 +5,9 @@
 //! Newton method.
 
 pub mod fc3d;
+pub mod mlcp;
 pub mod nsgs;
 
 pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};
+pub use mlcp::{solve_mixed_pgs, EqualitySolver};
 pub use nsgs::{solve_fc3d, NsgsOptions};
