@@ -73,6 +73,18 @@ fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> 
     println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);
     println!("max penetration  {:.3e} m", st.max_penetration);
     println!("max active       {} contacts", st.max_active_contacts);
+    if !sim.model.joints.is_empty() {
+        println!(
+            "joint violation  {:.3e} m, {:.3e} rad (max at step ends)",
+            st.max_joint_violation, st.max_joint_angle_violation
+        );
+    }
+    if sim.params.scheme != mc_study::integrator::Scheme::MoreauJean {
+        println!(
+            "projection       max {} iterations, max {} active-set passes, {} failures",
+            st.max_projection_iterations, st.max_active_set_passes, st.projection_failures
+        );
+    }
     println!(
         "solver failures  {} steps (max residual {:.2e})",
         st.solver_failures, st.max_solver_residual

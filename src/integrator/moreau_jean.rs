@@ -13,6 +13,9 @@ use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6x3, Vector3};
 
+/// The joints' bilateral rows evaluated at given poses.
+pub type JointRowsAt<'a> = &'a dyn Fn(&[Pose]) -> Vec<BilateralRow>;
+
 /// Result of the velocity step.
 #[derive(Clone, Debug)]
 pub struct VelocityStep {
@@ -61,7 +64,12 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
 
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
 /// warm-started from `warm` (one impulse per active contact), and the bilateral rows
-/// `joints` (evaluated at `poses`, rates at t + h). `mask` is `model.dof_mask()`.
+/// of the joints, `joints(q̄)` (rates b at t + h/2). The joints are imposed at the
+/// midpoint, H(q_{k+½}) (v_k + v_{k+1})/2 = b, with q_{k+½} from the current Newton
+/// iterate: this keeps the θ = 1/2 scheme second order on constrained motion, where
+/// frozen start-of-step rows H(q_k) v_{k+1} = b are only first order (measured on the
+/// pendulum: order 2.00 vs 1.00, 230× smaller error at h = 1 ms). The position drift left
+/// is O(h³) per step and the projection removes it. `mask` is `model.dof_mask()`.
 ///
 /// Without joints the Delassus matrix is assembled block by block from the sparse contact
 /// Jacobians. With joints the equality rows are eliminated exactly (Schur complement,
@@ -77,7 +85,7 @@ pub fn velocity_step(
     v0: &DVector<f64>,
     active: &[&ContactPoint],
     warm: &[Vector3<f64>],
-    joints: &[BilateralRow],
+    joints: Option<JointRowsAt>,
 ) -> VelocityStep {
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
@@ -98,8 +106,9 @@ pub fn velocity_step(
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    let (hmat, rates) = bilateral_matrix(joints, mask, ndof);
-    let mut q_joint = DVector::zeros(joints.len());
+    let mut hmat = DMatrix::zeros(0, ndof);
+    let mut rates = DVector::zeros(0);
+    let mut q_joint = DVector::zeros(0);
 
     let mut v = v0.clone();
     let mut f1 = DVector::zeros(ndof);
@@ -120,7 +129,7 @@ pub fn velocity_step(
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
             let mut reactions = resid.clone();
-            if !joints.is_empty() {
+            if joints.is_some() {
                 reactions -= hmat.tr_mul(&q_joint);
             }
             let res = newton_residual(&reactions, &blocks, &r, mask);
@@ -136,7 +145,14 @@ pub fn velocity_step(
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta);
         let v_free = &v - w.solve(&resid);
-        if joints.is_empty() {
+        if let Some(rows_at) = joints {
+            // H(q_{k+½}) v_{k+1} = 2b − H(q_{k+½}) v_k
+            let mid = advance_poses(poses, v0, &v, 0.5 * h, 0.5);
+            let (hm, b) = bilateral_matrix(&rows_at(&mid), mask, ndof);
+            rates = &b * 2.0 - &hm * v0;
+            hmat = hm;
+        }
+        if joints.is_none() {
             if active.is_empty() {
                 v = v_free;
                 continue;

@@ -165,15 +165,16 @@ impl Simulation {
         self.model.energy(&self.state)
     }
 
-    fn joint_rows(&self, t_rates: f64) -> Vec<BilateralRow> {
-        let mut rows = Vec::new();
-        for j in &self.model.joints {
-            j.rows(t_rates, &self.state.poses, &mut rows);
-        }
-        rows
-    }
-
-    fn velocity(&self, active: &[usize], joints: &[BilateralRow]) -> VelocityStep {
+    fn velocity(&self, active: &[usize]) -> VelocityStep {
+        let t_mid = self.state.t + 0.5 * self.params.h;
+        let joints = &self.model.joints;
+        let rows_at = |poses: &[Pose]| {
+            let mut rows = Vec::new();
+            for j in joints {
+                j.rows(t_mid, poses, &mut rows);
+            }
+            rows
+        };
         let refs: Vec<&ContactPoint> = active.iter().map(|&i| &self.points[i]).collect();
         let warm: Vec<Vector3<f64>> = active.iter().map(|&i| self.impulses[i]).collect();
         velocity_step(
@@ -185,7 +186,7 @@ impl Simulation {
             &self.state.v,
             &refs,
             &warm,
-            joints,
+            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(&[Pose]) -> Vec<BilateralRow>),
         )
     }
 
@@ -224,7 +225,6 @@ impl Simulation {
     /// Advances one step of size h.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let p = self.params.clone();
-        let joints = self.joint_rows(self.state.t + p.h);
         let v0 = &self.state.v;
         let forecast = |c: &ContactPoint| {
             c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
@@ -235,7 +235,7 @@ impl Simulation {
                 let active: Vec<usize> = (0..self.points.len())
                     .filter(|&i| forecast(&self.points[i]))
                     .collect();
-                let vs = self.velocity(&active, &joints);
+                let vs = self.velocity(&active);
                 let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
@@ -247,7 +247,7 @@ impl Simulation {
                 }
                 (active, vs, poses)
             }
-            Scheme::CombinedProjection => self.combined(&joints, &mut report),
+            Scheme::CombinedProjection => self.combined(&mut report),
         };
         if vs.v.iter().any(|x| !x.is_finite())
             || poses.iter().any(|q| !q.x.iter().all(|x| x.is_finite()))
@@ -290,11 +290,7 @@ impl Simulation {
 
     /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
     /// previous step's active set (kept while pressed or closed).
-    fn combined(
-        &self,
-        joints: &[BilateralRow],
-        report: &mut StepReport,
-    ) -> (Vec<usize>, VelocityStep, Vec<Pose>) {
+    fn combined(&self, report: &mut StepReport) -> (Vec<usize>, VelocityStep, Vec<Pose>) {
         let p = &self.params;
         let mut active: Vec<usize> = self
             .active
@@ -305,21 +301,16 @@ impl Simulation {
         let mut settled = false;
         let mut result = None;
         for pass in 1..=p.max_active_set_passes {
-            let vs = self.velocity(&active, joints);
+            let vs = self.velocity(&active);
             let mut poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
-            // project the active contacts that are pressed or penetrating, as equalities
-            let pressed: Vec<bool> = {
-                let mut flags = vec![false; self.points.len()];
-                for (k, &i) in active.iter().enumerate() {
-                    flags[i] = vs.impulses[k].x > 0.0;
-                }
-                flags
-            };
+            // Project the active contacts that penetrate, as equalities onto g = 0. Pressed
+            // contacts that ended with g > 0 are left where they are: pulling them down onto
+            // the surface (as Siconos' combined scheme does with every active contact) throws
+            // away m g·g of energy per impact, 60 % at e = 1 and h = 0.05 on the ball.
             let in_active: Vec<bool> = (0..self.points.len())
                 .map(|i| active.contains(&i))
                 .collect();
-            let selected =
-                |i: usize, cp: &ContactPoint| in_active[i] && (pressed[i] || cp.gap() < 0.0);
+            let selected = |i: usize, cp: &ContactPoint| in_active[i] && cp.gap() < 0.0;
             report.projection = self.project_poses(&mut poses, &selected, ContactRows::Equality);
             report.active_set_passes = pass;
             // activation from the end-of-step position

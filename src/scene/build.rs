@@ -653,16 +653,13 @@ fn integrator(spec: &IntegratorSpec) -> R<IntegrationParameters> {
         p.gamma = scalar(g, Dim::NONE, "integrator.gamma")?;
     }
     if let Some(s) = &spec.scheme {
-        p.scheme = match s.value.as_str() {
-            "moreau-jean" => Scheme::MoreauJean,
-            other => {
-                return Err(SceneError::at(
-                    line(s),
-                    "integrator.scheme",
-                    format!("unknown scheme `{other}` (available: moreau-jean)"),
-                ))
-            }
-        };
+        p.scheme = Scheme::parse(&s.value).ok_or_else(|| {
+            SceneError::at(
+                line(s),
+                "integrator.scheme",
+                format!("unknown scheme `{}` (available: moreau-jean, combined-projection, direct-projection)", s.value),
+            )
+        })?;
     }
     if let Some(m) = &spec.activation_margin {
         p.activation_margin = non_negative(m, Dim::LENGTH, "integrator.activation_margin")?;

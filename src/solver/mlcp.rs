@@ -3,17 +3,19 @@
 //! bilateral joint rows from the one-step problem (Schur complement) and for the
 //! position projection (`contact_solvers.md` §5).
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector, Dyn, LU};
 
 /// Relative regularisation added to the diagonal: redundant constraints (closed loops)
 /// make A singular but the systems stay consistent, and two steps of iterative refinement
 /// remove the bias of the regularisation.
 const REGULARISATION: f64 = 1e-12;
 
-/// Solver for the symmetric positive semidefinite systems A z = rhs of the equality rows.
+/// Solver for the systems A z = rhs of the equality rows, A = H W⁻¹ Hᵀ: positive
+/// semidefinite in its symmetric part, but not symmetric when W carries the gyroscopic
+/// Jacobian, so it is factorised by LU.
 pub struct EqualitySolver {
     a: DMatrix<f64>,
-    chol: Option<Cholesky<f64, Dyn>>,
+    lu: LU<f64, Dyn, Dyn>,
 }
 
 impl EqualitySolver {
@@ -26,22 +28,20 @@ impl EqualitySolver {
         for i in 0..reg.nrows() {
             reg[(i, i)] += REGULARISATION * scale;
         }
-        EqualitySolver {
-            a,
-            chol: reg.cholesky(),
-        }
+        EqualitySolver { a, lu: reg.lu() }
     }
 
-    /// A least-squares solution of A z = rhs (exact for consistent systems); NaN if A is
-    /// not positive semidefinite.
+    /// A solution of A z = rhs (exact for consistent systems); NaN if the regularised
+    /// matrix is singular.
     pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
-        let Some(chol) = &self.chol else {
+        let Some(mut z) = self.lu.solve(rhs) else {
             return DVector::from_element(rhs.len(), f64::NAN);
         };
-        let mut z = chol.solve(rhs);
         for _ in 0..2 {
             let r = rhs - &self.a * &z;
-            z += chol.solve(&r);
+            if let Some(dz) = self.lu.solve(&r) {
+                z += dz;
+            }
         }
         z
     }

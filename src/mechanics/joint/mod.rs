@@ -92,6 +92,7 @@ fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
 impl Joint {
     /// Builds a joint from the anchor and axis given in world coordinates at the assembled
     /// configuration `poses`.
+    #[allow(clippy::too_many_arguments)]
     pub fn from_world(
         name: impl Into<String>,
         kind: JointKind,
