@@ -3,10 +3,13 @@
 //! - 4-corner box sliding then sticking on a 20° incline with friction (3 s),
 //! - free asymmetric rigid body (gyroscopic Newton loop, 10 s).
 //!
+//! - pendulum and driven four-bar with ideal joints under each scheme (plain Moreau–Jean,
+//!   combined projection, direct projection): the price of the projection.
+//!
 //! Criterion reports time per element = per step. Run: `cargo bench --bench step`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use mc_study::integrator::Simulation;
+use mc_study::integrator::{Scheme, Simulation};
 use mc_study::scene::Scene;
 use std::hint::black_box;
 use std::path::Path;
@@ -22,9 +25,12 @@ fn scene(name: &str) -> Scene {
 }
 
 fn bench_scene(c: &mut Criterion, label: &str, name: &str, duration: f64) {
-    let s = scene(name);
+    bench_with(c, "step", label, scene(name), duration);
+}
+
+fn bench_with(c: &mut Criterion, group: &str, label: &str, s: Scene, duration: f64) {
     let steps = (duration / s.params.h).round() as u64;
-    let mut g = c.benchmark_group("step");
+    let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(steps));
     g.sample_size(20);
     g.bench_function(label, |b| {
@@ -46,5 +52,19 @@ fn steps(c: &mut Criterion) {
     bench_scene(c, "free_rigid_body", "free-body", 10.0);
 }
 
-criterion_group!(benches, steps);
+fn schemes(c: &mut Criterion) {
+    for name in ["pendulum", "four-bar"] {
+        for scheme in [
+            Scheme::MoreauJean,
+            Scheme::CombinedProjection,
+            Scheme::DirectProjection,
+        ] {
+            let mut s = scene(name);
+            s.params.scheme = scheme;
+            bench_with(c, "scheme", &format!("{name}/{}", scheme.name()), s, 2.0);
+        }
+    }
+}
+
+criterion_group!(benches, steps, schemes);
 criterion_main!(benches);

@@ -32,13 +32,8 @@ impl Trajectory {
         for b in m.bodies.iter().filter(|b| b.motion != Motion::Fixed) {
             columns.extend(BODY_FIELDS.iter().map(|f| format!("{}.{f}", b.name)));
         }
-        for &(c, k) in sim.contact_ids() {
-            let pair = &m.contacts[c];
-            let base = if pair.candidates() == 1 {
-                pair.name.clone()
-            } else {
-                format!("{}[{k}]", pair.name)
-            };
+        for &c in sim.contact_ids() {
+            let base = m.candidate_name(c);
             columns.extend(CONTACT_FIELDS.iter().map(|f| format!("{base}.{f}")));
         }
         let data = vec![Vec::new(); columns.len()];

@@ -217,3 +217,55 @@ fn driven_four_bar_closes_its_loop_and_follows_the_crank_profile() {
     let rocker = sim.model.body_index("rocker").unwrap();
     assert!(sim.state.v[6 * rocker + 4].abs() > 0.0);
 }
+
+#[test]
+fn joint_limits_stop_the_swing() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/pendulum/scene.yaml");
+    let text = std::fs::read_to_string(path).unwrap();
+    for e in [0.0, 1.0] {
+        let yaml = text.replace(
+            "    axis: [0, 1, 0]\n",
+            &format!(
+                "    axis: [0, 1, 0]\n    limits: {{ lower: -10 deg, upper: 120 deg, e: {e} }}\n"
+            ),
+        );
+        let scene = mc_study::scene::Scene::from_yaml(&yaml, "pendulum-limits").unwrap();
+        let upper = 120f64.to_radians();
+        let mut sim = simulation(scene);
+        let e0 = sim.energy();
+        let mut max_q = f64::MIN;
+        let mut hits = 0;
+        sim.run_until(4.0, |s, _| {
+            max_q = max_q.max(s.model.joints[0].coordinate(&s.state.poses));
+            let stop = s.contact_points().len() - 1;
+            hits += usize::from(s.impulses()[stop].x > 0.0);
+        })
+        .unwrap();
+        // energy relative to the swing's scale m g L/2 (E0 = 0 at the horizontal release)
+        let swing = 1.0 * 9.81 * 0.5;
+        let change = (sim.energy() - e0) / swing;
+        eprintln!("limits, e = {e}: max angle {max_q:.12} (stop {upper:.12}), {hits} stop steps, ΔE/(mgL/2) {change:.3e}");
+        assert!(
+            max_q <= upper + 1e-10,
+            "e = {e}: went through the stop: {max_q}"
+        );
+        // the combined scheme reflects where the step would cross the stop: within ω h
+        assert!(
+            max_q >= upper - 5e-3,
+            "e = {e}: never reached the stop: {max_q}"
+        );
+        assert!(hits >= 1);
+        assert!(sim.stats.max_penetration <= 1e-10);
+        if e == 1.0 {
+            assert!(
+                change.abs() < 1e-3,
+                "elastic stop changed the energy by {change}"
+            );
+        } else {
+            assert!(
+                change < -0.1,
+                "a plastic stop dissipates the swing's energy: {change}"
+            );
+        }
+    }
+}

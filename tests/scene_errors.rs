@@ -212,3 +212,74 @@ mod cli {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+const PENDULUM: &str = "duration: 1 s
+bodies:
+  - name: bar
+    mass: 1 kg
+    shape: { box: { size: [1 m, 20 mm, 20 mm] } }
+    position: [0.5 m, 0, 0]
+joints:
+  - name: pivot
+    type: revolute
+    body_a: ground
+    body_b: bar
+    anchor: [0, 0, 0]
+    axis: [0, 1, 0]
+";
+
+fn joint_error(from: &str, to: &str) -> String {
+    assert!(PENDULUM.contains(from), "test typo: {from}");
+    match Scene::from_yaml(&PENDULUM.replacen(from, to, 1), "scene.yaml") {
+        Ok(_) => panic!("accepted bad joint: {to}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_joints_are_rejected_with_field_and_line() {
+    assert!(Scene::from_yaml(PENDULUM, "scene.yaml").is_ok());
+    let e = joint_error("type: revolute", "type: hinge");
+    assert!(
+        e.starts_with("scene.yaml:9:") && e.contains("joints[0].type") && e.contains("hinge"),
+        "{e}"
+    );
+    let e = joint_error("body_b: bar", "body_b: arm");
+    assert!(
+        e.starts_with("scene.yaml:11:") && e.contains("unknown body `arm`"),
+        "{e}"
+    );
+    let e = joint_error("    axis: [0, 1, 0]\n", "    axis: [0, 0, 0]\n");
+    assert!(
+        e.contains("joints[0].axis") && e.contains("zero vector"),
+        "{e}"
+    );
+    let e = joint_error("    axis: [0, 1, 0]\n", "");
+    assert!(
+        e.contains("joints[0].axis") && e.contains("required"),
+        "{e}"
+    );
+    let e = joint_error(
+        "type: revolute",
+        "type: spherical\n    drive: { velocity: 1 rad/s }",
+    );
+    assert!(e.contains("joints[0].drive"), "{e}");
+    let e = joint_error(
+        "    axis: [0, 1, 0]\n",
+        "    axis: [0, 1, 0]\n    limits: { lower: 10 deg, upper: 5 deg }\n",
+    );
+    assert!(
+        e.starts_with("scene.yaml:14:") && e.contains("joints[0].limits"),
+        "{e}"
+    );
+    let e = joint_error(
+        "    axis: [0, 1, 0]\n",
+        "    axis: [0, 1, 0]\n    drive: { velocity: 1 m/s }\n",
+    );
+    assert!(
+        e.contains("joints[0].drive.velocity") && e.contains("angular velocity"),
+        "{e}"
+    );
+    let e = joint_error("body_a: ground", "body_a: bar");
+    assert!(e.contains("two different bodies"), "{e}");
+}

@@ -115,14 +115,14 @@ pub fn project(
         let a = &cmat * &mct;
         let c = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.value));
         let lambda = match mode {
-            ContactRows::Equality => EqualitySolver::new(a).solve(&(-&c)),
-            ContactRows::Inequality => {
+            ContactRows::Inequality if rows.len() > njoint => {
                 // inequality rows: 0 ≤ w = c + A Λ ⟂ Λ ≥ 0 (pushes out only)
                 let equality: Vec<bool> = (0..rows.len()).map(|k| k < njoint).collect();
                 let mut z = DVector::zeros(rows.len());
                 solve_mixed_pgs(&a, &c, &equality, &mut z, 0.1 * tolerance, 10_000);
                 z
             }
+            _ => EqualitySolver::new(a).solve(&(-&c)),
         };
         let dnu = &mct * lambda;
         if dnu.iter().any(|x| !x.is_finite()) {

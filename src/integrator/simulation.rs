@@ -8,7 +8,7 @@ use super::projection::{
     contact_normal_row, inverse_mass, project, ContactRows, ProjectionOutcome,
 };
 use crate::mechanics::joint::{BilateralRow, RowUnit};
-use crate::mechanics::model::State;
+use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::SolverStatus;
 use nalgebra::{Matrix6, Vector3};
@@ -60,7 +60,7 @@ pub struct Simulation {
     pub model: Model,
     pub params: IntegrationParameters,
     pub state: State,
-    candidates: Vec<(usize, usize)>,
+    candidates: Vec<Candidate>,
     mask: Vec<bool>,
     minv: Vec<Matrix6<f64>>,
     points: Vec<ContactPoint>,
@@ -72,17 +72,12 @@ pub struct Simulation {
     pub stats: RunStats,
 }
 
-fn evaluate(
-    model: &Model,
-    candidates: &[(usize, usize)],
-    poses: &[Pose],
-    out: &mut Vec<ContactPoint>,
-) {
+fn evaluate(model: &Model, candidates: &[Candidate], poses: &[Pose], out: &mut Vec<ContactPoint>) {
     out.clear();
     out.extend(
         candidates
             .iter()
-            .map(|&(c, k)| model.contacts[c].evaluate(k, poses)),
+            .map(|&c| model.evaluate_candidate(c, poses)),
     );
 }
 
@@ -146,8 +141,8 @@ impl Simulation {
         &self.points
     }
 
-    /// `(pair, candidate)` of each contact point.
-    pub fn contact_ids(&self) -> &[(usize, usize)] {
+    /// What each contact point is (pair point or joint stop).
+    pub fn contact_ids(&self) -> &[Candidate] {
         &self.candidates
     }
 

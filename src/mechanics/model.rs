@@ -3,10 +3,17 @@
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
 use super::body::{Motion, Pose, RigidBody};
-use super::contact::ContactPair;
+use super::contact::{ContactPair, ContactPoint};
 use super::force::{Force, Twist};
 use super::joint::Joint;
 use nalgebra::{DVector, Vector3};
+
+/// A unilateral contact candidate: a point of a contact pair, or a joint stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Candidate {
+    Pair { pair: usize, point: usize },
+    Limit { joint: usize, upper: bool },
+}
 
 /// A body index, or `None` for the ground (the fixed inertial frame).
 pub type BodyRef = Option<usize>;
@@ -147,12 +154,45 @@ impl Model {
             .sum::<f64>()
     }
 
-    /// `(pair, candidate)` for every candidate contact point, in a fixed order.
-    pub fn contact_candidates(&self) -> Vec<(usize, usize)> {
-        self.contacts
+    /// Every candidate contact point, in a fixed order: the points of each contact pair,
+    /// then the lower and upper stops of each joint with limits.
+    pub fn contact_candidates(&self) -> Vec<Candidate> {
+        let pairs = self.contacts.iter().enumerate().flat_map(|(i, c)| {
+            (0..c.candidates()).map(move |k| Candidate::Pair { pair: i, point: k })
+        });
+        let limits = self
+            .joints
             .iter()
             .enumerate()
-            .flat_map(|(i, c)| (0..c.candidates()).map(move |k| (i, k)))
-            .collect()
+            .filter(|(_, j)| j.limits.is_some())
+            .flat_map(|(i, _)| [false, true].map(|upper| Candidate::Limit { joint: i, upper }));
+        pairs.chain(limits).collect()
+    }
+
+    /// The candidate evaluated at `poses`.
+    pub fn evaluate_candidate(&self, c: Candidate, poses: &[Pose]) -> ContactPoint {
+        match c {
+            Candidate::Pair { pair, point } => self.contacts[pair].evaluate(point, poses),
+            Candidate::Limit { joint, upper } => self.joints[joint].limit_point(upper, poses),
+        }
+    }
+
+    /// A readable name of the candidate for outputs: `floor`, `box[3]`, `J1.upper`.
+    pub fn candidate_name(&self, c: Candidate) -> String {
+        match c {
+            Candidate::Pair { pair, point } => {
+                let p = &self.contacts[pair];
+                if p.candidates() == 1 {
+                    p.name.clone()
+                } else {
+                    format!("{}[{point}]", p.name)
+                }
+            }
+            Candidate::Limit { joint, upper } => format!(
+                "{}.{}",
+                self.joints[joint].name,
+                if upper { "upper" } else { "lower" }
+            ),
+        }
     }
 }

@@ -6,7 +6,7 @@ use super::units::{Dim, Quantity};
 use super::Scene;
 use crate::integrator::{IntegrationParameters, Scheme};
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
-use crate::mechanics::joint::{Drive, Joint, JointKind, ScalarProfile};
+use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{
     BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Shape,
 };
@@ -564,6 +564,47 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             })
         }
     };
+    let limits = match &spec.limits {
+        None => None,
+        Some(l) => {
+            if kind != JointKind::Revolute && kind != JointKind::Prismatic {
+                return Err(SceneError::at(
+                    line(l),
+                    f("limits"),
+                    "only revolute and prismatic joints have limits",
+                ));
+            }
+            let dim = if kind == JointKind::Revolute {
+                Dim::NONE
+            } else {
+                Dim::LENGTH
+            };
+            let lower = scalar(&l.value.lower, dim, &f("limits.lower"))?;
+            let upper = scalar(&l.value.upper, dim, &f("limits.upper"))?;
+            if lower > 0.0 || upper < 0.0 || lower >= upper {
+                return Err(SceneError::at(
+                    line(l),
+                    f("limits"),
+                    format!("need lower ≤ 0 ≤ upper and lower < upper (the assembled configuration is 0), got [{lower}, {upper}]"),
+                ));
+            }
+            let e = match &l.value.e {
+                Some(q) => {
+                    let e = scalar(q, Dim::NONE, &f("limits.e"))?;
+                    if !(0.0..=1.0).contains(&e) {
+                        return Err(SceneError::at(
+                            line(q),
+                            f("limits.e"),
+                            format!("must be in [0, 1], got {e}"),
+                        ));
+                    }
+                    e
+                }
+                None => 0.0,
+            };
+            Some(JointLimits { lower, upper, e })
+        }
+    };
     let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
     let world = spec.anchor.is_some() || spec.axis.is_some();
     let local = [&spec.anchor_a, &spec.anchor_b, &spec.axis_a, &spec.axis_b]
@@ -573,7 +614,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
         return Err(SceneError::at(line(&spec.name), f("anchor"), "give `anchor`/`axis` (world) or `anchor_a`, `anchor_b`, `axis_a`, `axis_b` (body frames), not both"));
     }
     let needs_axis = kind != JointKind::Spherical;
-    if world || !local {
+    let joint = if world || !local {
         let anchor = spec.anchor.as_ref().ok_or_else(|| {
             SceneError::at(
                 line(&spec.name),
@@ -592,7 +633,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             }
             None => Vector3::z(),
         };
-        Ok(Joint::from_world(
+        Joint::from_world(
             spec.name.value.clone(),
             kind,
             a,
@@ -601,7 +642,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             axis,
             &poses,
             drive,
-        ))
+        )
     } else {
         let axis_of = |x: &Option<Vector>, n: &str| -> R<Vector3<f64>> {
             match x {
@@ -614,7 +655,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
                 None => Ok(Vector3::z()),
             }
         };
-        Ok(Joint::new(
+        Joint::new(
             spec.name.value.clone(),
             kind,
             a,
@@ -625,8 +666,12 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             axis_of(&spec.axis_b, "axis_b")?,
             &poses,
             drive,
-        ))
-    }
+        )
+    };
+    Ok(match limits {
+        Some(l) => joint.with_limits(l),
+        None => joint,
+    })
 }
 
 fn count(q: &Q, field: &str) -> R<usize> {

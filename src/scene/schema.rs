@@ -50,6 +50,18 @@ pub struct JointSpec {
     pub axis_a: Option<Vector>,
     pub axis_b: Option<Vector>,
     pub drive: Option<Spanned<DriveSpec>>,
+    /// Stops on the joint coordinate (revolute: angle, prismatic: displacement, from the
+    /// assembled configuration).
+    pub limits: Option<Spanned<LimitsSpec>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LimitsSpec {
+    pub lower: Q,
+    pub upper: Q,
+    /// Restitution of the stops (default 0).
+    pub e: Option<Q>,
 }
 
 /// Exactly one of: `velocity` (constant rate of the joint coordinate from assembly),

@@ -12,7 +12,9 @@ pub use profile::ScalarProfile;
 
 use crate::math::{any_orthogonal, skew};
 use crate::mechanics::body::Pose;
+use crate::mechanics::contact::{ContactGeometry, ContactPoint};
 use crate::mechanics::model::BodyRef;
+use nalgebra::{Matrix3, Matrix3x6};
 use nalgebra::{RowVector6, Vector3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,6 +67,17 @@ pub struct Joint {
     /// perp1 of a expressed in b's frame at assembly (zero angle reference).
     ref_b: Vector3<f64>,
     pub drive: Option<Drive>,
+    /// Stops on the joint coordinate: frictionless unilateral contacts.
+    pub limits: Option<JointLimits>,
+}
+
+/// Lower and upper stop of a joint coordinate (rad or m), with the restitution of the
+/// stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointLimits {
+    pub lower: f64,
+    pub upper: f64,
+    pub e: f64,
 }
 
 /// Whether a row measures a length (m) or an angle (rad), for diagnostics.
@@ -154,6 +167,93 @@ impl Joint {
             perp_a: [p1, p2],
             ref_b,
             drive,
+            limits: None,
+        }
+    }
+
+    pub fn with_limits(mut self, limits: JointLimits) -> Self {
+        self.limits = Some(limits);
+        self
+    }
+
+    /// The joint coordinate (see [`Joint::coordinate`]) as a row with its gradient.
+    pub fn coordinate_row(&self, poses: &[Pose]) -> BilateralRow {
+        let pa = pose_of(self.a, poses);
+        let pb = pose_of(self.b, poses);
+        let ra = pa.p.to_rotation_matrix().into_inner();
+        let rb = pb.p.to_rotation_matrix().into_inner();
+        let mut ga = RowVector6::zeros();
+        let mut gb = RowVector6::zeros();
+        let unit = match self.kind {
+            JointKind::Prismatic => {
+                // s = e·(x_b − x_a) with e = R_a axis_a
+                let e = pa.dir(&self.axis_a);
+                let xa = pa.point(&self.anchor_a);
+                let xb = pb.point(&self.anchor_b);
+                gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
+                gb.fixed_columns_mut::<3>(3)
+                    .copy_from(&(-e.transpose() * skew(&(xb - pb.x)) * rb));
+                ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
+                ga.fixed_columns_mut::<3>(3).copy_from(
+                    &((e.transpose() * skew(&(xa - pa.x)) + e.cross(&(xb - xa)).transpose()) * ra),
+                );
+                RowUnit::Length
+            }
+            _ => {
+                // φ = atan2(r·p2, r·p1), r = R_b ref_b: φ̇ = (ω_b − ω_a)·c (c = axis when aligned)
+                let r = pb.dir(&self.ref_b);
+                let (p1, p2) = (pa.dir(&self.perp_a[0]), pa.dir(&self.perp_a[1]));
+                let (c1, c2) = (r.dot(&p1), r.dot(&p2));
+                let c = (r.cross(&p2) * c1 - r.cross(&p1) * c2) / (c1 * c1 + c2 * c2);
+                gb.fixed_columns_mut::<3>(3)
+                    .copy_from(&(c.transpose() * rb));
+                ga.fixed_columns_mut::<3>(3)
+                    .copy_from(&(-c.transpose() * ra));
+                RowUnit::Angle
+            }
+        };
+        BilateralRow {
+            a: self.a.map(|i| (i, ga)),
+            b: self.b.map(|i| (i, gb)),
+            value: self.coordinate(poses),
+            rate: 0.0,
+            unit,
+        }
+    }
+
+    /// The lower (or upper) stop as a frictionless contact point: gap q − lower (or
+    /// upper − q), normal row ±∂q/∂ν, no tangential rows.
+    pub fn limit_point(&self, upper: bool, poses: &[Pose]) -> ContactPoint {
+        let lim = self.limits.expect("limit_point on a joint with limits");
+        let row = self.coordinate_row(poses);
+        let (sign, gap) = if upper {
+            (-1.0, lim.upper - row.value)
+        } else {
+            (1.0, row.value - lim.lower)
+        };
+        let block = |g: Option<(usize, RowVector6<f64>)>| {
+            let mut m = Matrix3x6::zeros();
+            if let Some((_, r)) = g {
+                m.row_mut(0).copy_from(&(r * sign));
+            }
+            m
+        };
+        let pa = pose_of(self.a, poses);
+        let pb = pose_of(self.b, poses);
+        ContactPoint {
+            geometry: ContactGeometry {
+                gap,
+                normal: pa.dir(&self.axis_a) * sign,
+                point1: pb.point(&self.anchor_b),
+                point2: pa.point(&self.anchor_a),
+            },
+            frame: Matrix3::identity(),
+            body1: self.b,
+            body2: self.a,
+            g1: block(row.b),
+            g2: block(row.a),
+            mu: 0.0,
+            e: lim.e,
         }
     }
 
@@ -272,20 +372,13 @@ impl Joint {
                     out.push(r);
                 }
                 _ => {
-                    // angle error wrapped to (−π, π]; φ = atan2(r·p2, r·p1) with r = R_b ref_b,
-                    // whose exact gradient is (ω_b − ω_a)·c below (c = axis when aligned)
-                    let err = self.coordinate(poses) - target;
-                    let err = (err + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+                    // angle error wrapped to (−π, π]
+                    let mut r = self.coordinate_row(poses);
+                    let err = r.value - target;
+                    r.value = (err + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
                         - std::f64::consts::PI;
-                    let (c1, c2) = (ref_b.dot(&p1), ref_b.dot(&p2));
-                    let c = (ref_b.cross(&p2) * c1 - ref_b.cross(&p1) * c2) / (c1 * c1 + c2 * c2);
-                    let mut ga = RowVector6::zeros();
-                    let mut gb = RowVector6::zeros();
-                    gb.fixed_columns_mut::<3>(3)
-                        .copy_from(&(c.transpose() * rb));
-                    ga.fixed_columns_mut::<3>(3)
-                        .copy_from(&(-c.transpose() * ra));
-                    out.push(row(ga, gb, err, rate, RowUnit::Angle));
+                    r.rate = rate;
+                    out.push(r);
                 }
             }
         }
