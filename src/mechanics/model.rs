@@ -3,6 +3,7 @@
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
 use super::body::{Motion, Pose, RigidBody};
+use super::contact::clearance::ClearanceJoint;
 use super::contact::{ContactPair, ContactPoint};
 use super::force::{Force, Twist};
 use super::joint::Joint;
@@ -13,6 +14,7 @@ use nalgebra::{DVector, Vector3};
 pub enum Candidate {
     Pair { pair: usize, point: usize },
     Limit { joint: usize, upper: bool },
+    Clearance { joint: usize, point: usize },
 }
 
 /// A body index, or `None` for the ground (the fixed inertial frame).
@@ -25,6 +27,8 @@ pub struct Model {
     pub forces: Vec<Force>,
     pub contacts: Vec<ContactPair>,
     pub joints: Vec<Joint>,
+    /// Revolute joints with clearance: sets of unilateral contacts.
+    pub clearance_joints: Vec<ClearanceJoint>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
@@ -166,7 +170,10 @@ impl Model {
             .enumerate()
             .filter(|(_, j)| j.limits.is_some())
             .flat_map(|(i, _)| [false, true].map(|upper| Candidate::Limit { joint: i, upper }));
-        pairs.chain(limits).collect()
+        let clearance = self.clearance_joints.iter().enumerate().flat_map(|(i, j)| {
+            (0..j.candidates()).map(move |k| Candidate::Clearance { joint: i, point: k })
+        });
+        pairs.chain(limits).chain(clearance).collect()
     }
 
     /// The candidate evaluated at `poses`.
@@ -174,6 +181,9 @@ impl Model {
         match c {
             Candidate::Pair { pair, point } => self.contacts[pair].evaluate(point, poses),
             Candidate::Limit { joint, upper } => self.joints[joint].limit_point(upper, poses),
+            Candidate::Clearance { joint, point } => {
+                self.clearance_joints[joint].evaluate(point, poses)
+            }
         }
     }
 
@@ -193,6 +203,15 @@ impl Model {
                 self.joints[joint].name,
                 if upper { "upper" } else { "lower" }
             ),
+            Candidate::Clearance { joint, point } => {
+                let j = &self.clearance_joints[joint];
+                match point {
+                    0 => format!("{}.ring-", j.name),
+                    1 => format!("{}.ring+", j.name),
+                    k if k - 2 < j.rim_points => format!("{}.flange-[{}]", j.name, k - 2),
+                    k => format!("{}.flange+[{}]", j.name, k - 2 - j.rim_points),
+                }
+            }
         }
     }
 }

@@ -5,6 +5,7 @@ use super::schema::*;
 use super::units::{Dim, Quantity};
 use super::Scene;
 use crate::integrator::{IntegrationParameters, Scheme};
+use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{
@@ -488,8 +489,150 @@ fn scalar_table(t: &Spanned<Vec<Vec<Quantity>>>, dim: Dim, field: &str) -> R<Sca
     Ok(ScalarProfile::Table(rows))
 }
 
-fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
+/// A joint of the scene: ideal (bilateral rows) or with clearance (contacts).
+enum BuiltJoint {
+    Ideal(Joint),
+    Clearance(ClearanceJoint),
+}
+
+fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<ClearanceJoint> {
     let f = |s: &str| format!("joints[{i}].{s}");
+    let required = |q: &Option<Q>, name: &str, dim: Dim| -> R<f64> {
+        let q = q.as_ref().ok_or_else(|| {
+            SceneError::at(
+                line(&spec.name),
+                f(name),
+                "is required for a revolute-clearance joint",
+            )
+        })?;
+        positive(q, dim, &f(name))
+    };
+    let a = body_ref(model, &spec.body_a, &f("body_a"))?;
+    let b = body_ref(model, &spec.body_b, &f("body_b"))?;
+    let moving = |r: BodyRef| r.is_some_and(|i| model.bodies[i].motion != Motion::Fixed);
+    if a == b || !(moving(a) || moving(b)) {
+        return Err(SceneError::at(
+            line(&spec.body_b),
+            f("body_b"),
+            "a joint needs two different bodies, at least one of them moving",
+        ));
+    }
+    if spec.drive.is_some() || spec.limits.is_some() {
+        return Err(SceneError::at(line(&spec.name), f("drive"), "a revolute-clearance joint has no drive or limits (drive the bodies with an ideal joint)"));
+    }
+    let journal_radius = required(&spec.journal_radius, "journal_radius", Dim::LENGTH)?;
+    let rim = spec
+        .rim_points
+        .as_ref()
+        .map_or(Ok(4), |q| count(q, &f("rim_points")))?;
+    if rim < 3 {
+        return Err(SceneError::at(
+            spec.rim_points.as_ref().and_then(line),
+            f("rim_points"),
+            "needs at least 3 points per flange",
+        ));
+    }
+    let e = match &spec.e {
+        Some(q) => {
+            let e = scalar(q, Dim::NONE, &f("e"))?;
+            if !(0.0..=1.0).contains(&e) {
+                return Err(SceneError::at(
+                    line(q),
+                    f("e"),
+                    format!("must be in [0, 1], got {e}"),
+                ));
+            }
+            e
+        }
+        None => 0.0,
+    };
+    let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
+    let (bore_center, bore_axis, journal_point, journal_axis) =
+        if spec.anchor.is_some() || spec.axis.is_some() {
+            let anchor = spec.anchor.as_ref().ok_or_else(|| {
+                SceneError::at(
+                    line(&spec.name),
+                    f("anchor"),
+                    "is required (bore centre, world, at assembly)",
+                )
+            })?;
+            let anchor = vec3(anchor, Dim::LENGTH, &f("anchor"))?;
+            let axis = spec.axis.as_ref().ok_or_else(|| {
+                SceneError::at(
+                    line(&spec.name),
+                    f("axis"),
+                    "is required for a revolute-clearance joint",
+                )
+            })?;
+            let axis = unit_vec3(axis, &f("axis"))?;
+            let (pa, pb) = (pose(a), pose(b));
+            (
+                pa.p.inverse_transform_vector(&(anchor - pa.x)),
+                pa.p.inverse_transform_vector(&axis),
+                pb.p.inverse_transform_vector(&(anchor - pb.x)),
+                pb.p.inverse_transform_vector(&axis),
+            )
+        } else {
+            fn need(v: &Option<Vector>, field: String, l: Option<u64>) -> R<&Vector> {
+                v.as_ref().ok_or_else(|| {
+                    SceneError::at(
+                        l,
+                        field,
+                        "is required (or give anchor and axis in world coordinates)",
+                    )
+                })
+            }
+            let l = line(&spec.name);
+            (
+                vec3(
+                    need(&spec.anchor_a, f("anchor_a"), l)?,
+                    Dim::LENGTH,
+                    &f("anchor_a"),
+                )?,
+                unit_vec3(need(&spec.axis_a, f("axis_a"), l)?, &f("axis_a"))?,
+                vec3(
+                    need(&spec.anchor_b, f("anchor_b"), l)?,
+                    Dim::LENGTH,
+                    &f("anchor_b"),
+                )?,
+                unit_vec3(need(&spec.axis_b, f("axis_b"), l)?, &f("axis_b"))?,
+            )
+        };
+    Ok(ClearanceJoint {
+        name: spec.name.value.clone(),
+        bore_body: a,
+        journal_body: b,
+        bore_center,
+        bore_axis,
+        bore_length: required(&spec.bore_length, "bore_length", Dim::LENGTH)?,
+        journal_point,
+        journal_axis,
+        journal_radius,
+        clearance: required(&spec.clearance, "clearance", Dim::LENGTH)?,
+        axial_play: spec
+            .axial_play
+            .as_ref()
+            .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
+        flange_radius: spec
+            .flange_radius
+            .as_ref()
+            .map_or(Ok(1.5 * journal_radius), |q| {
+                positive(q, Dim::LENGTH, &f("flange_radius"))
+            })?,
+        rim_points: rim,
+        mu: spec
+            .mu
+            .as_ref()
+            .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
+        e,
+    })
+}
+
+fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    if spec.kind.value == "revolute-clearance" {
+        return clearance_joint(model, spec, i).map(BuiltJoint::Clearance);
+    }
     let kind = match spec.kind.value.as_str() {
         "revolute" => JointKind::Revolute,
         "prismatic" => JointKind::Prismatic,
@@ -499,7 +642,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             return Err(SceneError::at(
                 line(&spec.kind),
                 f("type"),
-                format!("unknown joint type `{other}` (revolute, prismatic, spherical, fixed)"),
+                format!("unknown joint type `{other}` (revolute, revolute-clearance, prismatic, spherical, fixed)"),
             ))
         }
     };
@@ -668,10 +811,10 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<Joint> {
             drive,
         )
     };
-    Ok(match limits {
+    Ok(BuiltJoint::Ideal(match limits {
         Some(l) => joint.with_limits(l),
         None => joint,
-    })
+    }))
 }
 
 fn count(q: &Q, field: &str) -> R<usize> {
@@ -812,15 +955,22 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         model.forces.push(f);
     }
     for (i, j) in spec.joints.iter().enumerate() {
-        if model.joints.iter().any(|k| k.name == j.name.value) {
+        if model.joints.iter().any(|k| k.name == j.name.value)
+            || model
+                .clearance_joints
+                .iter()
+                .any(|k| k.name == j.name.value)
+        {
             return Err(SceneError::at(
                 line(&j.name),
                 format!("joints[{i}].name"),
                 format!("duplicate joint name `{}`", j.name.value),
             ));
         }
-        let joint = joint(&model, j, i)?;
-        model.joints.push(joint);
+        match joint(&model, j, i)? {
+            BuiltJoint::Ideal(joint) => model.joints.push(joint),
+            BuiltJoint::Clearance(joint) => model.clearance_joints.push(joint),
+        }
     }
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
     let record_every = spec

@@ -53,6 +53,19 @@ pub struct JointSpec {
     /// Stops on the joint coordinate (revolute: angle, prismatic: displacement, from the
     /// assembled configuration).
     pub limits: Option<Spanned<LimitsSpec>>,
+    /// Clearance geometry, used by `revolute-clearance` (body_a carries the bore, body_b the
+    /// journal) and ignored by the ideal `revolute`, so switching is one word.
+    pub clearance: Option<Q>,
+    pub journal_radius: Option<Q>,
+    pub bore_length: Option<Q>,
+    /// Total axial play (default 0.1 mm).
+    pub axial_play: Option<Q>,
+    /// Flange rim radius (default 1.5 × journal radius).
+    pub flange_radius: Option<Q>,
+    /// Rim points per flange side (default 4).
+    pub rim_points: Option<Q>,
+    pub mu: Option<Q>,
+    pub e: Option<Q>,
 }
 
 #[derive(Debug, Deserialize)]

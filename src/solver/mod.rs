@@ -6,6 +6,7 @@
 
 pub mod fc3d;
 pub mod mlcp;
+pub mod newton;
 pub mod nsgs;
 
 pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};

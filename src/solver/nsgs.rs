@@ -6,7 +6,11 @@
 use super::fc3d::{
     contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus,
 };
+use super::newton::global_newton;
 use nalgebra::{DVector, Matrix3, Vector3};
+
+/// Every this many sweeps an unconverged NSGS tries the global Newton method.
+const GLOBAL_NEWTON_AFTER: usize = 20;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NsgsOptions {
@@ -65,6 +69,19 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
                 iterations: sweep,
                 residual,
             };
+        }
+        // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
+        // Newton method from the current iterate, falling back to more sweeps if it fails.
+        if sweep % GLOBAL_NEWTON_AFTER == 0 {
+            let mut trial = r.clone();
+            if let Some(it) = global_newton(p, &mut trial, opts.tolerance, 100) {
+                *r = trial;
+                return SolverStatus {
+                    converged: true,
+                    iterations: sweep + it,
+                    residual: natural_map_error(p, r),
+                };
+            }
         }
     }
     SolverStatus {

@@ -3,6 +3,7 @@
 //! 3×6 Jacobian blocks G₁, G₂ mapping the body twists to the local relative velocity
 //! (`rigid_bodies.md` §5: the lever arm of both bodies is taken at the point on body 1).
 
+pub mod clearance;
 pub mod primitives;
 
 pub use primitives::{ContactGeometry, Primitive};
@@ -103,8 +104,28 @@ impl ContactPair {
         let p1 = self.body1.map_or(Pose::identity(), |i| poses[i]);
         let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
         let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
+        ContactPoint::new(
+            geometry, self.body1, &p1, self.body2, &p2, None, self.mu, self.e,
+        )
+    }
+}
+
+impl ContactPoint {
+    /// Builds the local frame and the Jacobian blocks of a contact from its geometry; the
+    /// tangent basis is Frisvad's completion of n unless `tangents` gives one.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        geometry: ContactGeometry,
+        body1: BodyRef,
+        p1: &Pose,
+        body2: BodyRef,
+        p2: &Pose,
+        tangents: Option<(Vector3<f64>, Vector3<f64>)>,
+        mu: f64,
+        e: f64,
+    ) -> ContactPoint {
         let n = geometry.normal;
-        let (t1, t2) = tangent_basis(&n);
+        let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
         let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
         let jac = |pose: &Pose, sign: f64| -> Matrix3x6<f64> {
             let mut g = Matrix3x6::zeros();
@@ -117,17 +138,15 @@ impl ContactPair {
         ContactPoint {
             geometry,
             frame,
-            body1: self.body1,
-            body2: self.body2,
-            g1: jac(&p1, 1.0),
-            g2: jac(&p2, -1.0),
-            mu: self.mu,
-            e: self.e,
+            body1,
+            body2,
+            g1: jac(p1, 1.0),
+            g2: jac(p2, -1.0),
+            mu,
+            e,
         }
     }
-}
 
-impl ContactPoint {
     /// Local relative velocity (u_N, u_T1, u_T2) for the body twists `v` (6 per body).
     pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
         let mut u = Vector3::zeros();

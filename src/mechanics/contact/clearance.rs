@@ -1,0 +1,214 @@
+//! Revolute joint with radial and axial clearance (`clearance_joints.md` §2–3): a bore of
+//! radius R_B = R_J + c and length L_B on body B, a journal of radius R_J on body J, and
+//! flanges on the journal at both ends of the bore. It is a set of unilateral frictional
+//! contacts, no compliance:
+//! - two ring–cylinder contacts: each end ring of the bore against the journal cylinder,
+//!   closest point by Newton on the ring angle from the axis/ring-plane intersection;
+//! - m rim points per flange against the bore's end faces (axial play).
+
+use super::{ContactGeometry, ContactPoint};
+use crate::math::any_orthogonal;
+use crate::mechanics::body::Pose;
+use crate::mechanics::model::BodyRef;
+use nalgebra::Vector3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClearanceJoint {
+    pub name: String,
+    /// Body carrying the bore (the rings and the end faces).
+    pub bore_body: BodyRef,
+    /// Body carrying the journal (pin) and its flanges.
+    pub journal_body: BodyRef,
+    /// Bore centre (mid-length) and unit axis, in the bore body's frame.
+    pub bore_center: Vector3<f64>,
+    pub bore_axis: Vector3<f64>,
+    pub bore_length: f64,
+    /// A point on the journal axis (centred in the bore at assembly) and the unit axis, in
+    /// the journal body's frame.
+    pub journal_point: Vector3<f64>,
+    pub journal_axis: Vector3<f64>,
+    pub journal_radius: f64,
+    /// Radial clearance c = R_B − R_J (> 0).
+    pub clearance: f64,
+    /// Total free axial travel between the flanges and the bore faces (> 0).
+    pub axial_play: f64,
+    /// Radius of the flange rim points (contact annulus outer radius).
+    pub flange_radius: f64,
+    /// Rim points per flange side (≥ 3).
+    pub rim_points: usize,
+    pub mu: f64,
+    pub e: f64,
+}
+
+/// Newton iterations on the ring angle (1–3 are enough from the intersection guess; the
+/// loop stops at machine precision).
+const NEWTON_STEPS: usize = 5;
+
+impl ClearanceJoint {
+    pub fn bore_radius(&self) -> f64 {
+        self.journal_radius + self.clearance
+    }
+
+    /// 2 rings + 2 × rim points.
+    pub fn candidates(&self) -> usize {
+        2 + 2 * self.rim_points
+    }
+
+    fn poses(&self, poses: &[Pose]) -> (Pose, Pose) {
+        let p = |r: BodyRef| r.map_or(Pose::identity(), |i| poses[i]);
+        (p(self.bore_body), p(self.journal_body))
+    }
+
+    /// Candidate `k`: 0 and 1 are the − and + rings; then the rim points of the − flange,
+    /// then of the + flange.
+    pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
+        let (pb, pj) = self.poses(poses);
+        let a_b = pb.dir(&self.bore_axis);
+        let a_j = pj.dir(&self.journal_axis);
+        let c_b = pb.point(&self.bore_center);
+        let p_j = pj.point(&self.journal_point);
+        if k < 2 {
+            let side = if k == 0 { -1.0 } else { 1.0 };
+            let ring_center = c_b + a_b * (side * 0.5 * self.bore_length);
+            let g = ring_journal(
+                &ring_center,
+                &a_b,
+                self.bore_radius(),
+                &p_j,
+                &a_j,
+                self.journal_radius,
+            );
+            let t2 = g.normal.cross(&a_j);
+            ContactPoint::new(
+                g,
+                self.bore_body,
+                &pb,
+                self.journal_body,
+                &pj,
+                Some((a_j, t2)),
+                self.mu,
+                self.e,
+            )
+        } else {
+            let j = k - 2;
+            let (side, idx) = if j < self.rim_points {
+                (-1.0, j)
+            } else {
+                (1.0, j - self.rim_points)
+            };
+            // flange face on the journal, just outside the bore face by half the axial play
+            let offset = side * 0.5 * (self.bore_length + self.axial_play);
+            let b1 = any_orthogonal(&self.journal_axis);
+            let b2 = self.journal_axis.cross(&b1);
+            let phi = 2.0 * std::f64::consts::PI * idx as f64 / self.rim_points as f64;
+            let local = self.journal_point
+                + self.journal_axis * offset
+                + (b1 * phi.cos() + b2 * phi.sin()) * self.flange_radius;
+            let x = pj.point(&local);
+            let nu = a_b * side;
+            let face = c_b + a_b * (side * 0.5 * self.bore_length);
+            let gap = (x - face).dot(&nu);
+            let g = ContactGeometry {
+                gap,
+                normal: nu,
+                point1: x,
+                point2: x - nu * gap,
+            };
+            ContactPoint::new(
+                g,
+                self.journal_body,
+                &pj,
+                self.bore_body,
+                &pb,
+                None,
+                self.mu,
+                self.e,
+            )
+        }
+    }
+
+    /// An error when the journal has left the bore: its axis misses a ring by more than the
+    /// bore radius, or an end ring falls outside the journal's length (flange to flange).
+    pub fn check(&self, poses: &[Pose]) -> Result<(), String> {
+        let (pb, pj) = self.poses(poses);
+        let a_b = pb.dir(&self.bore_axis);
+        let a_j = pj.dir(&self.journal_axis);
+        let c_b = pb.point(&self.bore_center);
+        let p_j = pj.point(&self.journal_point);
+        let reach = 0.5 * (self.bore_length + self.axial_play);
+        for side in [-1.0, 1.0] {
+            let ring = c_b + a_b * (side * 0.5 * self.bore_length);
+            let axial = (ring - p_j).dot(&a_j);
+            let radial = ((ring - p_j) - a_j * axial).norm();
+            if axial.abs() > reach + self.axial_play || radial > self.bore_radius() {
+                return Err(format!(
+                    "the journal of clearance joint `{}` left its bore (axial {:.3e} m, radial {:.3e} m)",
+                    self.name, axial, radial
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Closest point between the ring (centre `c`, unit normal `a`, radius `r`) and the
+/// cylinder of axis (`p`, unit `aj`) and radius `rj`. Body 1 carries the ring: the normal
+/// points from the cylinder surface towards the ring point, gap = distance − rj.
+pub fn ring_journal(
+    c: &Vector3<f64>,
+    a: &Vector3<f64>,
+    r: f64,
+    p: &Vector3<f64>,
+    aj: &Vector3<f64>,
+    rj: f64,
+) -> ContactGeometry {
+    let b1 = any_orthogonal(a);
+    let b2 = a.cross(&b1);
+    // initial guess: where the journal axis crosses the ring plane
+    let denom = a.dot(aj);
+    let s = if denom.abs() > 1e-12 {
+        p + aj * (a.dot(&(c - p)) / denom)
+    } else {
+        *p
+    };
+    let e = s - c;
+    let (ex, ey) = (e.dot(&b1), e.dot(&b2));
+    let mut phi = if ex.hypot(ey) > 0.0 {
+        ey.atan2(ex)
+    } else {
+        0.0
+    };
+    // Newton on f'(φ) = 0, f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0
+    for _ in 0..NEWTON_STEPS {
+        let (sn, cs) = phi.sin_cos();
+        let w = c + (b1 * cs + b2 * sn) * r - p;
+        let w1 = (b2 * cs - b1 * sn) * r;
+        let w2 = -(b1 * cs + b2 * sn) * r;
+        let (wa, w1a, w2a) = (w.dot(aj), w1.dot(aj), w2.dot(aj));
+        let d1 = w.dot(&w1) - wa * w1a;
+        let d2 = w1.dot(&w1) + w.dot(&w2) - w1a * w1a - wa * w2a;
+        if d2 <= 0.0 {
+            break;
+        }
+        let step = d1 / d2;
+        phi -= step;
+        if step.abs() <= 1e-15 * (1.0 + phi.abs()) {
+            break;
+        }
+    }
+    let ring_point = c + (b1 * phi.cos() + b2 * phi.sin()) * r;
+    let foot = p + aj * (ring_point - p).dot(aj);
+    let d = ring_point - foot;
+    let dist = d.norm();
+    let normal = if dist > 0.0 {
+        d / dist
+    } else {
+        any_orthogonal(aj)
+    };
+    ContactGeometry {
+        gap: dist - rj,
+        normal,
+        point1: ring_point,
+        point2: foot + normal * rj,
+    }
+}

@@ -1,0 +1,125 @@
+//! Global Alart–Curnier nonsmooth Newton on the whole FC3D problem (dense), the second
+//! solver of `contact_solvers.md` §4 and §6.3: quadratic convergence where Gauss–Seidel
+//! crawls, e.g. two contacts a few millimetres apart on a long body (the two rings of a
+//! clearance joint), whose Delassus matrix is ill-conditioned.
+
+use super::fc3d::{natural_map_error, Fc3d};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
+
+/// Φ of one contact and its derivatives A = ∂Φ/∂r, B = ∂Φ/∂u.
+fn local(
+    u: &Vector3<f64>,
+    r: &Vector3<f64>,
+    mu: f64,
+    rho_n: f64,
+    rho_t: f64,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let tau_n = r.x - rho_n * u.x;
+    if tau_n <= 0.0 {
+        return (*r, Matrix3::identity(), Matrix3::zeros());
+    }
+    let mut phi = Vector3::zeros();
+    let mut a = Matrix3::zeros();
+    let mut b = Matrix3::zeros();
+    phi.x = rho_n * u.x;
+    b[(0, 0)] = rho_n;
+    let tau_t = Vector2::new(r.y - rho_t * u.y, r.z - rho_t * u.z);
+    let s = mu * tau_n;
+    let nt = tau_t.norm();
+    if nt <= s {
+        phi.y = rho_t * u.y;
+        phi.z = rho_t * u.z;
+        b[(1, 1)] = rho_t;
+        b[(2, 2)] = rho_t;
+    } else {
+        let x = tau_t / nt;
+        phi.y = r.y - s * x.x;
+        phi.z = r.z - s * x.y;
+        let p = (Matrix2::identity() - x * x.transpose()) * (s / nt);
+        let en = RowVector3::new(1.0, 0.0, 0.0);
+        let sel = nalgebra::Matrix2x3::new(0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        let at = sel - x * en * mu - p * sel;
+        let bt = x * en * (mu * rho_n) + p * sel * rho_t;
+        a.fixed_rows_mut::<2>(1).copy_from(&at);
+        b.fixed_rows_mut::<2>(1).copy_from(&bt);
+    }
+    (phi, a, b)
+}
+
+fn phi_and_jacobian(
+    p: &Fc3d,
+    r: &DVector<f64>,
+    rho: &[(f64, f64)],
+    with_jacobian: bool,
+) -> (DVector<f64>, Option<DMatrix<f64>>) {
+    let n = p.mu.len();
+    let u = p.w * r + p.q;
+    let mut phi = DVector::zeros(3 * n);
+    let mut jac = with_jacobian.then(|| DMatrix::zeros(3 * n, 3 * n));
+    for (a, &(rho_n, rho_t)) in rho.iter().enumerate().take(n) {
+        let o = 3 * a;
+        let ua = Vector3::new(u[o], u[o + 1], u[o + 2]);
+        let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
+        let (f, da, db) = local(&ua, &ra, p.mu[a], rho_n, rho_t);
+        phi.fixed_rows_mut::<3>(o).copy_from(&f);
+        if let Some(j) = jac.as_mut() {
+            // J = A + B W on the contact's rows
+            let bw = db * p.w.rows(o, 3);
+            j.rows_mut(o, 3).copy_from(&bw);
+            let mut diag = j.fixed_view_mut::<3, 3>(o, o);
+            diag += da;
+        }
+    }
+    (phi, jac)
+}
+
+/// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
+/// natural-map error), leaving the best iterate in `r` either way.
+pub fn global_newton(
+    p: &Fc3d,
+    r: &mut DVector<f64>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Option<usize> {
+    let n = p.mu.len();
+    let rho: Vec<(f64, f64)> = (0..n)
+        .map(|a| {
+            let o = 3 * a;
+            let wn = p.w[(o, o)].max(f64::MIN_POSITIVE);
+            let wt = p.w[(o + 1, o + 1)]
+                .max(p.w[(o + 2, o + 2)])
+                .max(f64::MIN_POSITIVE);
+            (1.0 / wn, 1.0 / wt)
+        })
+        .collect();
+    for it in 0..max_iterations {
+        if natural_map_error(p, r) <= tolerance {
+            return Some(it);
+        }
+        let (phi, jac) = phi_and_jacobian(p, r, &rho, true);
+        let f0 = phi.norm_squared();
+        // Redundant contacts (the two rings of a clearance joint share the axial slip
+        // direction) make J singular but the equations consistent: a tiny diagonal shift
+        // keeps the step defined without changing the solution.
+        let mut jac = jac.expect("requested");
+        let shift = 1e-10 * jac.amax().max(f64::MIN_POSITIVE);
+        for k in 0..jac.nrows() {
+            jac[(k, k)] += shift;
+        }
+        let dr = jac.lu().solve(&(-&phi))?;
+        let mut t = 1.0;
+        loop {
+            let trial = &*r + &dr * t;
+            let (p2, _) = phi_and_jacobian(p, &trial, &rho, false);
+            if p2.norm_squared() <= (1.0 - 1e-4 * t) * f0 {
+                *r = trial;
+                break;
+            }
+            t *= 0.5;
+            if t < 1e-10 {
+                return None;
+            }
+        }
+    }
+    (natural_map_error(p, r) <= tolerance).then_some(max_iterations)
+}

@@ -1,0 +1,253 @@
+//! Revolute joint with clearance: ring–journal geometry against brute force, static loads
+//! (radial, moment, axial) against equilibrium, and the pendulum on a clearance joint.
+
+mod common;
+
+use common::{bundled, simulation};
+use mc_study::mechanics::contact::clearance::ring_journal;
+use mc_study::scene::Scene;
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Distance from the ring point at angle φ to the journal axis.
+fn axis_distance(
+    c: &Vector3<f64>,
+    b1: &Vector3<f64>,
+    b2: &Vector3<f64>,
+    r: f64,
+    p: &Vector3<f64>,
+    aj: &Vector3<f64>,
+    phi: f64,
+) -> f64 {
+    let x = c + (b1 * phi.cos() + b2 * phi.sin()) * r - p;
+    (x - aj * x.dot(aj)).norm()
+}
+
+#[test]
+fn ring_journal_gap_matches_brute_force_sampling() {
+    let (rj, c, lb) = (5e-3, 7e-5, 10e-3);
+    let rb = rj + c;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut worst: f64 = 0.0;
+    for _ in 0..40 {
+        // random bore frame, journal tilted by up to c/L_B and offset within the clearance
+        let rot = UnitQuaternion::from_euler_angles(
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-1.5..1.5),
+            rng.random_range(-3.0..3.0),
+        );
+        let a = rot * Vector3::z();
+        let ring_c = rot * Vector3::new(0.0, 0.0, 0.5 * lb);
+        let tilt = UnitQuaternion::from_scaled_axis(
+            rot * Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                0.0,
+            ) * (c / lb),
+        );
+        let aj = tilt * a;
+        let off =
+            rot * Vector3::new(
+                rng.random_range(-0.6..0.6),
+                rng.random_range(-0.6..0.6),
+                rng.random_range(-1.0..1.0),
+            ) * c;
+        let g = ring_journal(&ring_c, &a, rb, &off, &aj, rj);
+        // brute force: 1e5 samples, then golden-section refinement around the best one
+        let b1 = mc_study::math::any_orthogonal(&a);
+        let b2 = a.cross(&b1);
+        let n = 100_000;
+        let (best, _) = (0..n)
+            .map(|k| {
+                let phi = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
+                (phi, axis_distance(&ring_c, &b1, &b2, rb, &off, &aj, phi))
+            })
+            .fold((0.0, f64::MAX), |acc, x| if x.1 < acc.1 { x } else { acc });
+        let step = 2.0 * std::f64::consts::PI / n as f64;
+        let (mut lo, mut hi) = (best - step, best + step);
+        let gr = (5f64.sqrt() - 1.0) / 2.0;
+        for _ in 0..100 {
+            let m1 = hi - gr * (hi - lo);
+            let m2 = lo + gr * (hi - lo);
+            if axis_distance(&ring_c, &b1, &b2, rb, &off, &aj, m1)
+                < axis_distance(&ring_c, &b1, &b2, rb, &off, &aj, m2)
+            {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
+        }
+        let phi = 0.5 * (lo + hi);
+        let brute_gap = axis_distance(&ring_c, &b1, &b2, rb, &off, &aj, phi) - rj;
+        let brute_point = ring_c + (b1 * phi.cos() + b2 * phi.sin()) * rb;
+        worst = worst.max((g.gap - brute_gap).abs());
+        assert!(
+            (g.gap - brute_gap).abs() < 1e-12,
+            "gap {} vs brute force {}",
+            g.gap,
+            brute_gap
+        );
+        assert!(
+            (g.point1 - brute_point).norm() < 1e-7,
+            "contact point off by {}",
+            (g.point1 - brute_point).norm()
+        );
+        // normal ⟂ journal axis, pointing from the journal surface to the ring point
+        assert!(g.normal.dot(&aj).abs() < 1e-12);
+        assert!(((g.point1 - g.point2).dot(&g.normal) - g.gap).abs() < 1e-15);
+    }
+    eprintln!("worst gap error against brute force: {worst:e} m");
+    // aligned axes: the planar formula c − |e|
+    let e = Vector3::new(3e-5, -2e-5, 0.0);
+    let g = ring_journal(&Vector3::zeros(), &Vector3::z(), rb, &e, &Vector3::z(), rj);
+    assert!(
+        (g.gap - (c - e.norm())).abs() < 1e-15,
+        "{} vs {}",
+        g.gap,
+        c - e.norm()
+    );
+    // centred journal: inactive (gap = c), finite normal, no NaN
+    let g = ring_journal(
+        &Vector3::zeros(),
+        &Vector3::z(),
+        rb,
+        &Vector3::zeros(),
+        &Vector3::z(),
+        rj,
+    );
+    assert!((g.gap - c).abs() < 1e-15 && g.normal.iter().all(|x| x.is_finite()));
+}
+
+/// A 0.1 kg pin (journal radius 5 mm) in a fixed 10 mm bore, no gravity, under a load.
+fn loaded_pin(load: &str, axial_play: &str) -> mc_study::integrator::Simulation {
+    let yaml = format!(
+        r#"
+duration: 1 s
+gravity: [0, 0, 0]
+integrator: {{ h: 0.1 ms }}
+bodies:
+  - name: pin
+    mass: 0.1 kg
+    shape: {{ cylinder: {{ radius: 5 mm, length: 20 mm }} }}
+    orientation: {{ axis: [1, 0, 0], angle: -90 deg }}
+joints:
+  - name: J
+    type: revolute-clearance
+    body_a: ground
+    body_b: pin
+    anchor: [0, 0, 0]
+    axis: [0, 1, 0]
+    clearance: 0.07 mm
+    journal_radius: 5 mm
+    bore_length: 10 mm
+    axial_play: {axial_play}
+    mu: 0.2
+forces:
+  - load: {{ body: pin, {load} }}
+"#
+    );
+    simulation(Scene::from_yaml(&yaml, "pin").unwrap_or_else(|e| panic!("{e}")))
+}
+
+#[test]
+fn radial_load_settles_on_the_loaded_side_and_balances() {
+    let f = 10.0;
+    let mut sim = loaded_pin("force: [0, 0, -10 N]", "0.1 mm");
+    sim.run_until(0.05, |_, _| {}).unwrap();
+    let h = sim.params.h;
+    // both rings touch at the bottom (aligned line contact) with zero gap
+    let pts = sim.contact_points();
+    let mut total = Vector3::zeros();
+    for (k, (cp, p)) in pts.iter().zip(sim.impulses()).enumerate() {
+        total += cp.frame.transpose() * p; // impulse on body 1 (the bore), in world axes
+        if k < 2 {
+            assert!(cp.gap().abs() < 1e-10, "ring {k} gap {}", cp.gap());
+            assert!(p.x > 0.0, "ring {k} carries load");
+            assert!(
+                cp.normal().z < -0.999,
+                "contact at the bottom: n = {}",
+                cp.normal()
+            );
+        }
+    }
+    // the journal pushes the bore down with F h per step; the bore holds it
+    assert!(
+        (total.z + f * h).abs() < 1e-9 * f * h,
+        "impulse {} vs load {}",
+        total.z,
+        -f * h
+    );
+    assert!(sim.stats.max_penetration < 1e-10);
+    assert_eq!(sim.stats.solver_failures, 0);
+}
+
+#[test]
+fn moment_load_engages_opposite_rings() {
+    // with 0.1 mm of axial play the flanges (rim radius 7.5 mm) would take the moment at a
+    // tilt of 6.7e-3 rad, before the rings (2c/L_B = 1.4e-2): give them 1 mm
+    let mut sim = loaded_pin("torque: [1 N*m, 0, 0]", "1 mm");
+    sim.run_until(0.05, |_, _| {}).unwrap();
+    let pts = sim.contact_points();
+    let imp = sim.impulses();
+    assert!(
+        imp[0].x > 0.0 && imp[1].x > 0.0,
+        "both rings carry the moment: {:?} {:?}",
+        imp[0],
+        imp[1]
+    );
+    assert!(
+        pts[0].normal().dot(&pts[1].normal()) < -0.999,
+        "on opposite sides"
+    );
+    // tilt ≈ 2c/L_B; exactly, the ring point (R_B, L_B/2) lies at R_J from the tilted axis:
+    // R_B cos β − (L_B/2) sin β = R_J
+    let (rb, rj, half) = (5.07e-3, 5e-3, 5e-3);
+    let mut beta: f64 = 2.0 * 7e-5 / 10e-3;
+    for _ in 0..20 {
+        beta -= (rb * beta.cos() - half * beta.sin() - rj) / (-rb * beta.sin() - half * beta.cos());
+    }
+    let axis = sim.state.poses[0].p * Vector3::z();
+    let tilt = axis.cross(&Vector3::y()).norm().asin();
+    assert!((tilt - beta).abs() < 1e-9, "tilt {tilt} vs {beta}");
+    assert!(sim.stats.max_penetration < 1e-10);
+}
+
+#[test]
+fn axial_load_stops_at_the_axial_play_on_the_flange() {
+    let mut sim = loaded_pin("force: [0, 5 N, 0]", "0.1 mm");
+    sim.run_until(0.05, |_, _| {}).unwrap();
+    let y = sim.state.poses[0].x.y;
+    assert!(
+        (y - 0.5e-4).abs() < 1e-10,
+        "axial travel {y} vs half the play 5e-5"
+    );
+    let active: Vec<usize> = (0..sim.impulses().len())
+        .filter(|&k| sim.impulses()[k].x > 0.0)
+        .collect();
+    // the four rim points of the flange on the − side (it comes against the − face)
+    assert_eq!(active, vec![2, 3, 4, 5], "active candidates {active:?}");
+    let total: f64 = sim.impulses().iter().map(|p| p.x).sum();
+    assert!((total - 5.0 * sim.params.h).abs() < 1e-9 * 5.0 * sim.params.h);
+}
+
+#[test]
+fn pendulum_on_a_clearance_joint_never_penetrates() {
+    for (h, t) in [(1e-4, 1.0), (1e-5, 1.0), (1e-6, 0.05)] {
+        let mut scene = bundled("pendulum-clearance");
+        scene.params.h = h;
+        let mut sim = simulation(scene);
+        sim.run_until(t, |_, _| {}).unwrap();
+        let s = sim.stats;
+        eprintln!(
+            "h = {h:e}: max penetration {:.2e} m, solver failures {}, active ≤ {}",
+            s.max_penetration, s.solver_failures, s.max_active_contacts
+        );
+        assert!(
+            s.max_penetration <= 1e-9,
+            "h = {h}: penetration {:e}",
+            s.max_penetration
+        );
+        assert_eq!(s.projection_failures, 0);
+    }
+}
