@@ -21,7 +21,7 @@ fn incline(beta_deg: f64, mu: f64, v0: (f64, f64), h: f64) -> Simulation {
     let yaml = format!(
         r#"
 duration: 3 s
-integrator: {{ h: {h} }}
+integrator: {{ h: {h}, solver: {{ tolerance: 1e-12 }} }}
 bodies:
   - name: block
     mass: 1 kg

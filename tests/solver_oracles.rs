@@ -197,7 +197,10 @@ fn frictionless_case_equals_the_lcp_solution() {
                 mu: &mu,
             },
             &mut r,
-            &NsgsOptions::default(),
+            &NsgsOptions {
+                tolerance: 1e-13,
+                max_sweeps: 5000,
+            },
         );
         assert!(st.converged);
         let wn = DMatrix::from_fn(n, n, |a, b| w[(3 * a, 3 * b)]);

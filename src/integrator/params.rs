@@ -56,7 +56,9 @@ pub struct IntegrationParameters {
     /// freely, so the margin only bounds how early an approach is stopped.
     pub activation_margin: f64,
     /// FC3D solver tolerance (relative natural-map error) and sweep limit.
-    /// Defaults 1e-12 and 1000.
+    /// Defaults 1e-10 (the Siconos slider-crank setting; redundant contacts such as the
+    /// two rings of a clearance joint in a planar mechanism floor the error near 1e-12)
+    /// and 1000.
     pub solver: NsgsOptions,
     /// Newton loop on the smooth forces: relative residual tolerance (default 1e-10) and
     /// iteration limit (default 15), as in the Siconos mechanisms toolbox.

@@ -9,8 +9,12 @@ use super::fc3d::{
 use super::newton::global_newton;
 use nalgebra::{DVector, Matrix3, Vector3};
 
-/// Every this many sweeps an unconverged NSGS tries the global Newton method.
+/// After this many sweeps (and again after five times as many) an unconverged NSGS tries
+/// the global Newton method.
 const GLOBAL_NEWTON_AFTER: usize = 20;
+
+/// Sweeps without a 10 % improvement of the residual after which NSGS gives up.
+const STAGNATION_SWEEPS: usize = 200;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NsgsOptions {
@@ -23,7 +27,7 @@ pub struct NsgsOptions {
 impl Default for NsgsOptions {
     fn default() -> Self {
         NsgsOptions {
-            tolerance: 1e-12,
+            tolerance: 1e-10,
             max_sweeps: 1000,
         }
     }
@@ -44,6 +48,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
         .map(|a| p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned())
         .collect();
     let mut residual = f64::INFINITY;
+    let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     for sweep in 1..=opts.max_sweeps {
         for (a, block) in blocks.iter().enumerate() {
             let o = 3 * a;
@@ -70,9 +75,19 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
                 residual,
             };
         }
+        // no progress for a while: report the failure rather than sweep on
+        if residual < 0.9 * best {
+            (best, best_sweep) = (residual, sweep);
+        } else if sweep - best_sweep > STAGNATION_SWEEPS {
+            return SolverStatus {
+                converged: false,
+                iterations: sweep,
+                residual,
+            };
+        }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
         // Newton method from the current iterate, falling back to more sweeps if it fails.
-        if sweep % GLOBAL_NEWTON_AFTER == 0 {
+        if sweep == GLOBAL_NEWTON_AFTER || sweep == 5 * GLOBAL_NEWTON_AFTER {
             let mut trial = r.clone();
             if let Some(it) = global_newton(p, &mut trial, opts.tolerance, 100) {
                 *r = trial;
