@@ -6,6 +6,8 @@
 //! - pendulum and driven four-bar with ideal joints under each scheme (plain Moreau–Jean,
 //!   combined projection, direct projection): the price of the projection.
 //!
+//! - pendulum and slider-crank with the joint ideal versus with clearance.
+//!
 //! Criterion reports time per element = per step. Run: `cargo bench --bench step`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -66,5 +68,30 @@ fn schemes(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, steps, schemes);
+/// The price of modelling a clearance: the same scene with the joint ideal (`revolute`)
+/// and with clearance (`revolute-clearance`).
+fn clearance(c: &mut Criterion) {
+    for (name, duration) in [("pendulum-clearance", 0.5), ("slider-crank-clearance", 0.2)] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("studies")
+            .join(name)
+            .join("scene.yaml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let ideal = Scene::from_yaml(
+            &text.replace("type: revolute-clearance", "type: revolute"),
+            name,
+        )
+        .unwrap();
+        bench_with(c, "clearance", &format!("{name}/ideal"), ideal, duration);
+        bench_with(
+            c,
+            "clearance",
+            &format!("{name}/clearance"),
+            scene(name),
+            duration,
+        );
+    }
+}
+
+criterion_group!(benches, steps, schemes, clearance);
 criterion_main!(benches);

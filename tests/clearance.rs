@@ -422,3 +422,27 @@ fn extremes_matrix_on_the_clearance_pendulum() {
         }
     }
 }
+
+#[test]
+fn a_journal_outside_its_bore_is_a_modelling_error_not_a_contact() {
+    // the pin's axis 6 mm off the bore axis (outside the 5.07 mm bore), or 10 mm out along it
+    for shift in [Vector3::new(0.0, 0.0, -6e-3), Vector3::new(0.0, 10e-3, 0.0)] {
+        let mut sim = loaded_pin("force: [0, 0, -10 N]", "0.1 mm");
+        sim.state.poses[0].x += shift;
+        match sim.step() {
+            Err(mc_study::integrator::SimError::Geometry { message, .. }) => {
+                assert!(
+                    message.contains("left its bore") && message.contains("`J`"),
+                    "{message}"
+                )
+            }
+            other => panic!("expected a modelling error, got {other:?}"),
+        }
+    }
+    // a journal pushed into the wall (axis still inside the bore) is a penetration, which the
+    // combined scheme's projection removes in one step
+    let mut sim = loaded_pin("force: [0, 0, -10 N]", "0.1 mm");
+    sim.state.poses[0].x.z -= 1e-3;
+    sim.step().unwrap();
+    assert!(sim.contact_points()[..2].iter().all(|c| c.gap() >= -1e-10));
+}

@@ -225,6 +225,13 @@ impl Simulation {
     /// Advances one step of size h.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let p = self.params.clone();
+        for j in &self.model.clearance_joints {
+            j.check(&self.state.poses)
+                .map_err(|message| SimError::Geometry {
+                    t: self.state.t,
+                    message,
+                })?;
+        }
         let v0 = &self.state.v;
         let forecast = |c: &ContactPoint| {
             c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
