@@ -202,9 +202,10 @@ pub fn velocity_step(
             // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with H v = b
             let wiht = solve_columns(&w, &hmat.transpose());
             let schur = EqualitySolver::new(&hmat * &wiht);
-            let v_free_c = &v_free + &wiht * schur.solve(&(&rates - &hmat * &v_free));
+            let q_free = schur.solve(&(&rates - &hmat * &v_free));
+            let v_free_c = &v_free + &wiht * &q_free;
             if active.is_empty() {
-                q_joint = schur.solve(&(&rates - &hmat * &v_free));
+                q_joint = q_free;
                 v = v_free_c;
                 continue;
             }

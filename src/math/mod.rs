@@ -58,6 +58,27 @@ pub fn tangent_basis(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     (t1, t2)
 }
 
+/// Piecewise-linear interpolation in a table of strictly increasing times, clamped to the
+/// first and last values outside it.
+pub fn piecewise_linear<T>(rows: &[(f64, T)], t: f64) -> T
+where
+    T: Copy
+        + std::ops::Add<Output = T>
+        + std::ops::Sub<Output = T>
+        + std::ops::Mul<f64, Output = T>,
+{
+    let i = rows.partition_point(|(ti, _)| *ti <= t);
+    if i == 0 {
+        rows[0].1
+    } else if i == rows.len() {
+        rows[i - 1].1
+    } else {
+        let (t0, v0) = rows[i - 1];
+        let (t1, v1) = rows[i];
+        v0 + (v1 - v0) * ((t - t0) / (t1 - t0))
+    }
+}
+
 /// Any unit vector orthogonal to the unit vector `n` (deterministic).
 #[inline]
 pub fn any_orthogonal(n: &Vector3<f64>) -> Vector3<f64> {

@@ -20,18 +20,7 @@ impl Profile {
     pub fn at(&self, t: f64) -> Vector3<f64> {
         match self {
             Profile::Constant(v) => *v,
-            Profile::Table(rows) => {
-                let i = rows.partition_point(|(ti, _)| *ti <= t);
-                if i == 0 {
-                    rows[0].1
-                } else if i == rows.len() {
-                    rows[i - 1].1
-                } else {
-                    let (t0, v0) = rows[i - 1];
-                    let (t1, v1) = rows[i];
-                    v0 + (v1 - v0) * ((t - t0) / (t1 - t0))
-                }
-            }
+            Profile::Table(rows) => crate::math::piecewise_linear(rows, t),
         }
     }
 }

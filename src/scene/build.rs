@@ -78,6 +78,20 @@ fn values(v: &Vector, dim: Dim, field: &str, len: usize) -> R<Vec<f64>> {
         .collect()
 }
 
+/// A Newton restitution coefficient: in [0, 1], default 0.
+fn restitution(q: &Option<Q>, field: &str) -> R<f64> {
+    let Some(q) = q else { return Ok(0.0) };
+    let e = scalar(q, Dim::NONE, field)?;
+    if !(0.0..=1.0).contains(&e) {
+        return Err(SceneError::at(
+            line(q),
+            field,
+            format!("must be in [0, 1], got {e}"),
+        ));
+    }
+    Ok(e)
+}
+
 fn vec3(v: &Vector, dim: Dim, field: &str) -> R<Vector3<f64>> {
     let x = values(v, dim, field, 3)?;
     Ok(Vector3::new(x[0], x[1], x[2]))
@@ -532,20 +546,7 @@ fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<ClearanceJoin
             "needs at least 3 points per flange",
         ));
     }
-    let e = match &spec.e {
-        Some(q) => {
-            let e = scalar(q, Dim::NONE, &f("e"))?;
-            if !(0.0..=1.0).contains(&e) {
-                return Err(SceneError::at(
-                    line(q),
-                    f("e"),
-                    format!("must be in [0, 1], got {e}"),
-                ));
-            }
-            e
-        }
-        None => 0.0,
-    };
+    let e = restitution(&spec.e, &f("e"))?;
     let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
     let (bore_center, bore_axis, journal_point, journal_axis) =
         if spec.anchor.is_some() || spec.axis.is_some() {
@@ -731,20 +732,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
                     format!("need lower ≤ 0 ≤ upper and lower < upper (the assembled configuration is 0), got [{lower}, {upper}]"),
                 ));
             }
-            let e = match &l.value.e {
-                Some(q) => {
-                    let e = scalar(q, Dim::NONE, &f("limits.e"))?;
-                    if !(0.0..=1.0).contains(&e) {
-                        return Err(SceneError::at(
-                            line(q),
-                            f("limits.e"),
-                            format!("must be in [0, 1], got {e}"),
-                        ));
-                    }
-                    e
-                }
-                None => 0.0,
-            };
+            let e = restitution(&l.value.e, &f("limits.e"))?;
             Some(JointLimits { lower, upper, e })
         }
     };
@@ -923,20 +911,7 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         let mu =
             c.mu.as_ref()
                 .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
-        let e = match &c.e {
-            Some(q) => {
-                let e = scalar(q, Dim::NONE, &f("e"))?;
-                if !(0.0..=1.0).contains(&e) {
-                    return Err(SceneError::at(
-                        line(q),
-                        f("e"),
-                        format!("must be in [0, 1], got {e}"),
-                    ));
-                }
-                e
-            }
-            None => 0.0,
-        };
+        let e = restitution(&c.e, &f("e"))?;
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
         let pair = ContactPair::new(
             name,

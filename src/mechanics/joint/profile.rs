@@ -12,18 +12,7 @@ impl ScalarProfile {
     pub fn value(&self, t: f64) -> f64 {
         match self {
             ScalarProfile::Rate { start, rate } => start + rate * t,
-            ScalarProfile::Table(rows) => {
-                let i = rows.partition_point(|(ti, _)| *ti <= t);
-                if i == 0 {
-                    rows[0].1
-                } else if i == rows.len() {
-                    rows[i - 1].1
-                } else {
-                    let (t0, v0) = rows[i - 1];
-                    let (t1, v1) = rows[i];
-                    v0 + (v1 - v0) * (t - t0) / (t1 - t0)
-                }
-            }
+            ScalarProfile::Table(rows) => crate::math::piecewise_linear(rows, t),
         }
     }
 
