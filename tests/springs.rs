@@ -28,7 +28,7 @@ forces:
 #[test]
 fn undamped_spring_matches_the_harmonic_oscillator() {
     let (k, m) = (800.0, 2.0);
-    let omega = (k / m as f64).sqrt();
+    let omega = (k / m).sqrt();
     let mut sim = oscillator(k, 0.0, 1e-4);
     let e0 = sim.energy();
     let mut worst_e: f64 = 0.0;
@@ -54,8 +54,8 @@ fn undamped_spring_matches_the_harmonic_oscillator() {
 #[test]
 fn damped_spring_decays_at_the_analytic_rate() {
     let (k, m, c) = (800.0, 2.0, 8.0);
-    let zeta = c / (2.0 * (k * m as f64).sqrt());
-    let omega = (k / m as f64).sqrt();
+    let zeta = c / (2.0 * (k * m).sqrt());
+    let omega = (k / m).sqrt();
     let mut sim = oscillator(k, c, 1e-4);
     sim.run_until(1.0, |_, _| {}).unwrap();
     // x(t) = A e^{−ζωt}(cos ω_d t + ζω/ω_d sin ω_d t)
