@@ -27,7 +27,7 @@ forces:
 
 #[test]
 fn undamped_spring_matches_the_harmonic_oscillator() {
-    let (k, m) = (800.0, 2.0);
+    let (k, m): (f64, f64) = (800.0, 2.0);
     let omega = (k / m).sqrt();
     let mut sim = oscillator(k, 0.0, 1e-4);
     let e0 = sim.energy();
@@ -53,7 +53,7 @@ fn undamped_spring_matches_the_harmonic_oscillator() {
 
 #[test]
 fn damped_spring_decays_at_the_analytic_rate() {
-    let (k, m, c) = (800.0, 2.0, 8.0);
+    let (k, m, c): (f64, f64, f64) = (800.0, 2.0, 8.0);
     let zeta = c / (2.0 * (k * m).sqrt());
     let omega = (k / m).sqrt();
     let mut sim = oscillator(k, c, 1e-4);
