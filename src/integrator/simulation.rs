@@ -311,8 +311,7 @@ impl Simulation {
             .copied()
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
-        let mut settled = false;
-        let mut result = None;
+        let mut last = None;
         for pass in 1..=p.max_active_set_passes {
             let vs = self.velocity(&active);
             let mut poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
@@ -342,18 +341,16 @@ impl Simulation {
             let new: Vec<usize> = (0..after.len())
                 .filter(|&i| !in_active[i] && after[i].gap() <= 0.0)
                 .collect();
-            result = Some((active.clone(), vs, poses));
             if new.is_empty() {
-                settled = true;
-                break;
+                return (active, vs, poses);
             }
+            last = Some((active.clone(), vs, poses));
             active.extend(new);
             active.sort_unstable();
         }
-        if !settled {
-            report.projection.converged = false;
-        }
-        result.expect("at least one pass")
+        // the active set did not settle within the allowed passes: keep the last pass, flag it
+        report.projection.converged = false;
+        last.expect("at least one pass")
     }
 
     /// Steps until `t_end` (to the nearest step), calling `observe` after every step.

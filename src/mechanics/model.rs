@@ -44,17 +44,6 @@ impl State {
     pub fn twist(&self, i: usize) -> Twist {
         Twist::from_column_slice(&self.v.as_slice()[6 * i..6 * i + 6])
     }
-
-    pub fn twists(&self) -> Vec<Twist> {
-        twists_of(&self.v)
-    }
-}
-
-pub(crate) fn twists_of(v: &DVector<f64>) -> Vec<Twist> {
-    v.as_slice()
-        .chunks_exact(6)
-        .map(Twist::from_column_slice)
-        .collect()
 }
 
 impl Model {

@@ -96,7 +96,7 @@ impl ContactPair {
 
     /// Number of candidate points this pair expands into.
     pub fn candidates(&self) -> usize {
-        self.shape1.candidates_against(&self.shape2)
+        self.shape1.candidate_count()
     }
 
     /// Geometry and Jacobian of candidate `k` at the given body poses.

@@ -54,7 +54,8 @@ impl Primitive {
         }
     }
 
-    pub(crate) fn candidates_against(&self, _other: &Primitive) -> usize {
+    /// Candidate points of this shape against a plane or sphere.
+    pub(crate) fn candidate_count(&self) -> usize {
         match self {
             Primitive::Box { .. } => 8,
             Primitive::Cylinder { .. } | Primitive::Capsule { .. } => 2,
