@@ -503,6 +503,22 @@ fn scalar_table(t: &Spanned<Vec<Vec<Quantity>>>, dim: Dim, field: &str) -> R<Sca
     Ok(ScalarProfile::Table(rows))
 }
 
+/// The two bodies of joint `i`: different, and at least one of them moving.
+fn joint_bodies(model: &Model, spec: &JointSpec, i: usize) -> R<(BodyRef, BodyRef)> {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    let a = body_ref(model, &spec.body_a, &f("body_a"))?;
+    let b = body_ref(model, &spec.body_b, &f("body_b"))?;
+    let moving = |r: BodyRef| r.is_some_and(|i| model.bodies[i].motion != Motion::Fixed);
+    if a == b || !(moving(a) || moving(b)) {
+        return Err(SceneError::at(
+            line(&spec.body_b),
+            f("body_b"),
+            "a joint needs two different bodies, at least one of them moving",
+        ));
+    }
+    Ok((a, b))
+}
+
 /// A joint of the scene: ideal (bilateral rows) or with clearance (contacts).
 enum BuiltJoint {
     Ideal(Joint),
@@ -521,16 +537,7 @@ fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<ClearanceJoin
         })?;
         positive(q, dim, &f(name))
     };
-    let a = body_ref(model, &spec.body_a, &f("body_a"))?;
-    let b = body_ref(model, &spec.body_b, &f("body_b"))?;
-    let moving = |r: BodyRef| r.is_some_and(|i| model.bodies[i].motion != Motion::Fixed);
-    if a == b || !(moving(a) || moving(b)) {
-        return Err(SceneError::at(
-            line(&spec.body_b),
-            f("body_b"),
-            "a joint needs two different bodies, at least one of them moving",
-        ));
-    }
+    let (a, b) = joint_bodies(model, spec, i)?;
     if spec.drive.is_some() || spec.limits.is_some() {
         return Err(SceneError::at(line(&spec.name), f("drive"), "a revolute-clearance joint has no drive or limits (drive the bodies with an ideal joint)"));
     }
@@ -647,16 +654,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
             ))
         }
     };
-    let a = body_ref(model, &spec.body_a, &f("body_a"))?;
-    let b = body_ref(model, &spec.body_b, &f("body_b"))?;
-    let moving = |r: BodyRef| r.is_some_and(|i| model.bodies[i].motion != Motion::Fixed);
-    if a == b || !(moving(a) || moving(b)) {
-        return Err(SceneError::at(
-            line(&spec.body_b),
-            f("body_b"),
-            "a joint needs two different bodies, at least one of them moving",
-        ));
-    }
+    let (a, b) = joint_bodies(model, spec, i)?;
     let drive = match &spec.drive {
         None => None,
         Some(d) => {
