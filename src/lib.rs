@@ -4,11 +4,15 @@
 //!
 //! Layout (see DESIGN.md §3): [`math`] rotation helpers, [`mechanics`] what the system is,
 //! [`integrator`] how it is integrated, [`solver`] pure numerics, [`scene`] the YAML scene
-//! format, [`trajectory`] recorded outputs.
+//! format, [`probe`] a run's named outputs, [`trajectory`] recorded outputs, [`expr`]
+//! closed-form expressions, [`study`] the Monte-Carlo runner, store and statistics.
 
+pub mod expr;
 pub mod integrator;
 pub mod math;
 pub mod mechanics;
+pub mod probe;
 pub mod scene;
 pub mod solver;
+pub mod study;
 pub mod trajectory;

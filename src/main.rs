@@ -4,8 +4,12 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
+use mc_study::study::merge::{merge, status};
+use mc_study::study::runner::{self, RunOptions, Shard};
+use mc_study::study::Study;
 use mc_study::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -23,6 +27,55 @@ struct Cli {
 enum Command {
     /// Runs one simulation of a scene: writes the trajectory and prints diagnostics
     /// (steps, max penetration, solver failures, wall time).
+    /// Runs a Monte-Carlo study: samples the study's parameters, simulates every sample in
+    /// parallel and stores one row per sample in OUT/parts/*.parquet. Rerunning the same
+    /// command resumes (completed samples are skipped); a complete unsharded run merges into
+    /// OUT/results.parquet and prints the summary. Ctrl-C stops after writing the samples
+    /// done; a second Ctrl-C exits at once.
+    Run {
+        /// Study YAML file (see studies/*/study.yaml).
+        study: PathBuf,
+        /// Number of samples N (overrides `samples`; for `saltelli` the base rows).
+        #[arg(long)]
+        samples: Option<u64>,
+        /// Output directory (overrides `output`; default results/<study name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Run only shard I of N (`I/N`); `/N` takes I from SLURM_ARRAY_TASK_ID.
+        #[arg(long)]
+        shard: Option<String>,
+        /// Same as `--shard /N`.
+        #[arg(long, conflicts_with = "shard")]
+        shards: Option<u64>,
+        /// No progress bar or progress lines.
+        #[arg(long)]
+        quiet: bool,
+        /// Samples per part file: a crash loses at most the samples not yet in a part.
+        #[arg(long, default_value_t = 1024)]
+        part_rows: usize,
+        /// Seconds after which a part is written even if not full.
+        #[arg(long, default_value_t = 30.0)]
+        part_seconds: f64,
+    },
+    /// Merges the part files of OUT into OUT/results.parquet (sorted by sample_id), writes
+    /// OUT/summary.json and prints the summary. Refuses when samples are missing.
+    Merge {
+        out: PathBuf,
+        /// Merge even if samples are missing (the summary then covers those present).
+        #[arg(long)]
+        allow_partial: bool,
+    },
+    /// Tells which shards of OUT are complete, partial or missing, with failures, and the
+    /// `--array=` list to resubmit.
+    Status {
+        out: PathBuf,
+        /// Shard count to report on (default: that of the latest run).
+        #[arg(long)]
+        shards: Option<u64>,
+    },
     Simulate {
         /// Scene YAML file (see studies/*/scene.yaml).
         scene: PathBuf,
@@ -118,9 +171,162 @@ fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> 
     Ok(())
 }
 
+/// `mc-study run` arguments.
+struct RunArgs {
+    samples: Option<u64>,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    shard: Option<Shard>,
+    quiet: bool,
+    part_rows: usize,
+    part_seconds: f64,
+}
+
+fn run(study: &Path, args: RunArgs) -> Result<bool> {
+    let study = Study::load(study, args.samples)?;
+    if args.threads == Some(0) {
+        bail!("--threads must be ≥ 1");
+    }
+    if args.part_rows == 0 || !(args.part_seconds > 0.0) {
+        bail!("--part-rows and --part-seconds must be positive");
+    }
+    let out = args.out.unwrap_or_else(|| study.output_dir.clone());
+    let mut opts = RunOptions::new(out.clone());
+    opts.threads = args.threads;
+    opts.shard = args.shard.unwrap_or(Shard::WHOLE);
+    opts.progress = !args.quiet;
+    opts.rows_per_part = args.part_rows;
+    opts.seconds_per_part = args.part_seconds;
+    let stop = opts.stop.clone();
+    ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            eprintln!("\nsecond interrupt: exiting now; rerun the same command to resume");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupt: finishing the samples under way and writing them (Ctrl-C again to quit at once)");
+    })
+    .context("installing the Ctrl-C handler")?;
+    let (a, b) = opts.shard.range(study.runs());
+    eprintln!(
+        "study {} ({} design, {} runs, seed {}), shard {}/{} = samples {a}–{} → {}",
+        study.name,
+        study.design.kind.name(),
+        study.runs(),
+        study.seed,
+        opts.shard.index,
+        opts.shard.count,
+        b.saturating_sub(1),
+        out.display()
+    );
+    let r = runner::run(&study, &opts)?;
+    eprintln!(
+        "{} samples run ({} failed), {} already done, in {:.1} s ({:.1} samples/s)",
+        r.done,
+        r.failed,
+        r.skipped,
+        r.wall_seconds,
+        r.done as f64 / r.wall_seconds.max(1e-9)
+    );
+    if r.interrupted {
+        eprintln!("interrupted: rerun the same command to resume");
+        return Ok(false);
+    }
+    if r.missing.is_empty() && opts.shard.count == 1 {
+        let m = merge(&out, false)?;
+        print!("{}", m.summary.table());
+        eprintln!("results: {} ({} rows), {}", m.path.display(), m.rows, out.join("summary.json").display());
+    } else if r.missing.is_empty() {
+        eprintln!("all samples of the study are done: run `mc-study merge {}`", out.display());
+    } else {
+        eprintln!(
+            "shard done; {} samples of the study remain in other shards (`mc-study status {}`)",
+            r.missing.count(),
+            out.display()
+        );
+    }
+    Ok(true)
+}
+
+fn print_status(out: &Path, shards: Option<u64>) -> Result<()> {
+    let (m, v) = status(out, shards)?;
+    println!("study {} ({} runs, hash {}…)", m.study_name, m.runs, &m.study_hash[..12]);
+    println!("{:<8} {:>9} {:>9} {:>9} {:>9}  state", "shard", "samples", "done", "failed", "missing");
+    let mut resubmit = Vec::new();
+    for s in &v {
+        let state = if s.done == s.samples {
+            "complete"
+        } else if s.done == 0 {
+            "missing"
+        } else {
+            "partial"
+        };
+        if s.done < s.samples {
+            resubmit.push(s.shard.index.to_string());
+        }
+        println!(
+            "{:<8} {:>9} {:>9} {:>9} {:>9}  {state}",
+            format!("{}/{}", s.shard.index, s.shard.count),
+            s.samples,
+            s.done,
+            s.failed,
+            s.samples - s.done
+        );
+    }
+    if resubmit.is_empty() {
+        println!("all shards complete: `mc-study merge {}`", out.display());
+    } else {
+        println!("incomplete shards: --array={}", resubmit.join(","));
+    }
+    Ok(())
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
+        Command::Run {
+            study,
+            samples,
+            out,
+            threads,
+            shard,
+            shards,
+            quiet,
+            part_rows,
+            part_seconds,
+        } => {
+            let shard = match (shard, shards) {
+                (Some(s), _) => Shard::parse(s).map(Some),
+                (None, Some(n)) => Shard::parse(&format!("/{n}")).map(Some),
+                (None, None) => Ok(None),
+            };
+            match shard {
+                Err(e) => Err(anyhow::anyhow!(e)),
+                Ok(shard) => match run(
+                    study,
+                    RunArgs {
+                        samples: *samples,
+                        out: out.clone(),
+                        threads: *threads,
+                        shard,
+                        quiet: *quiet,
+                        part_rows: *part_rows,
+                        part_seconds: *part_seconds,
+                    },
+                ) {
+                    Ok(true) => Ok(()),
+                    Ok(false) => return std::process::ExitCode::from(130),
+                    Err(e) => Err(e),
+                },
+            }
+        }
+        Command::Merge { out, allow_partial } => merge(out, *allow_partial).map(|m| {
+            print!("{}", m.summary.table());
+            eprintln!("results: {} ({} rows)", m.path.display(), m.rows);
+            if !m.missing.is_empty() {
+                eprintln!("partial: {} samples missing ({})", m.missing.count(), m.missing.describe(8));
+            }
+        }),
+        Command::Status { out, shards } => print_status(out, *shards),
         Command::Simulate {
             scene,
             out,

@@ -16,11 +16,11 @@ use serde_saphyr::Spanned;
 
 type R<T> = Result<T, SceneError>;
 
-fn line<T>(s: &Spanned<T>) -> Option<u64> {
+pub(super) fn line<T>(s: &Spanned<T>) -> Option<u64> {
     Some(s.referenced.line()).filter(|&l| l > 0)
 }
 
-fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
+pub(super) fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = q
         .value
         .value(dim)
@@ -97,12 +97,12 @@ fn vec3(v: &Vector, dim: Dim, field: &str) -> R<Vector3<f64>> {
     Ok(Vector3::new(x[0], x[1], x[2]))
 }
 
-fn opt_vec3(v: &Option<Vector>, dim: Dim, field: &str) -> R<Vector3<f64>> {
+pub(super) fn opt_vec3(v: &Option<Vector>, dim: Dim, field: &str) -> R<Vector3<f64>> {
     v.as_ref()
         .map_or(Ok(Vector3::zeros()), |v| vec3(v, dim, field))
 }
 
-fn unit_vec3(v: &Vector, field: &str) -> R<Vector3<f64>> {
+pub(super) fn unit_vec3(v: &Vector, field: &str) -> R<Vector3<f64>> {
     let x = vec3(v, Dim::NONE, field)?;
     let n = x.norm();
     if n == 0.0 {
@@ -161,7 +161,7 @@ fn orientation(o: &Spanned<OrientationSpec>, field: &str) -> R<UnitQuaternion<f6
     ))
 }
 
-fn body_ref(model: &Model, name: &Name, field: &str) -> R<BodyRef> {
+pub(super) fn body_ref(model: &Model, name: &Name, field: &str) -> R<BodyRef> {
     if name.value == "ground" {
         return Ok(None);
     }
@@ -803,7 +803,7 @@ fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
     }))
 }
 
-fn count(q: &Q, field: &str) -> R<usize> {
+pub(super) fn count(q: &Q, field: &str) -> R<usize> {
     let v = positive(q, Dim::NONE, field)?;
     if v.fract() != 0.0 {
         return Err(SceneError::at(
@@ -815,51 +815,56 @@ fn count(q: &Q, field: &str) -> R<usize> {
     Ok(v as usize)
 }
 
-fn integrator(spec: &IntegratorSpec) -> R<IntegrationParameters> {
-    let mut p = IntegrationParameters::default();
+/// Applies an `integrator` block (or a study's `fidelity` block, named by `prefix`) on top
+/// of `p`.
+pub fn apply_integrator(
+    spec: &IntegratorSpec,
+    p: &mut IntegrationParameters,
+    prefix: &str,
+) -> R<()> {
     if let Some(h) = &spec.h {
-        p.h = positive(h, Dim::TIME, "integrator.h")?;
+        p.h = positive(h, Dim::TIME, &format!("{prefix}.h"))?;
     }
     if let Some(t) = &spec.theta {
-        p.theta = scalar(t, Dim::NONE, "integrator.theta")?;
+        p.theta = scalar(t, Dim::NONE, &format!("{prefix}.theta"))?;
     }
     if let Some(g) = &spec.gamma {
-        p.gamma = scalar(g, Dim::NONE, "integrator.gamma")?;
+        p.gamma = scalar(g, Dim::NONE, &format!("{prefix}.gamma"))?;
     }
     if let Some(s) = &spec.scheme {
         p.scheme = Scheme::parse(&s.value).ok_or_else(|| {
             SceneError::at(
                 line(s),
-                "integrator.scheme",
+                &format!("{prefix}.scheme"),
                 format!("unknown scheme `{}` (available: moreau-jean, combined-projection, direct-projection)", s.value),
             )
         })?;
     }
     if let Some(m) = &spec.activation_margin {
-        p.activation_margin = non_negative(m, Dim::LENGTH, "integrator.activation_margin")?;
+        p.activation_margin = non_negative(m, Dim::LENGTH, &format!("{prefix}.activation_margin"))?;
     }
     if let Some(s) = &spec.solver {
         if let Some(t) = &s.tolerance {
-            p.solver.tolerance = positive(t, Dim::NONE, "integrator.solver.tolerance")?;
+            p.solver.tolerance = positive(t, Dim::NONE, &format!("{prefix}.solver.tolerance"))?;
         }
         if let Some(m) = &s.max_iterations {
-            p.solver.max_sweeps = count(m, "integrator.solver.max_iterations")?;
+            p.solver.max_sweeps = count(m, &format!("{prefix}.solver.max_iterations"))?;
         }
     }
     if let Some(s) = &spec.projection {
         if let Some(t) = &s.tolerance {
-            p.projection_tolerance = positive(t, Dim::NONE, "integrator.projection.tolerance")?;
+            p.projection_tolerance = positive(t, Dim::NONE, &format!("{prefix}.projection.tolerance"))?;
         }
         if let Some(m) = &s.max_iterations {
-            p.projection_max_iterations = count(m, "integrator.projection.max_iterations")?;
+            p.projection_max_iterations = count(m, &format!("{prefix}.projection.max_iterations"))?;
         }
     }
     if let Some(s) = &spec.newton {
         if let Some(t) = &s.tolerance {
-            p.newton_tolerance = positive(t, Dim::NONE, "integrator.newton.tolerance")?;
+            p.newton_tolerance = positive(t, Dim::NONE, &format!("{prefix}.newton.tolerance"))?;
         }
         if let Some(m) = &s.max_iterations {
-            p.newton_max_iterations = count(m, "integrator.newton.max_iterations")?;
+            p.newton_max_iterations = count(m, &format!("{prefix}.newton.max_iterations"))?;
         }
     }
     let field_line = |name: &str| -> Option<u64> {
@@ -870,11 +875,17 @@ fn integrator(spec: &IntegratorSpec) -> R<IntegrationParameters> {
         }
     };
     p.validate()
-        .map_err(|(f, m)| SceneError::at(field_line(f), format!("integrator.{f}"), m))?;
-    Ok(p)
+        .map_err(|(f, m)| SceneError::at(field_line(f), format!("{prefix}.{f}"), m))
 }
 
 pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
+    if let Some(k) = spec.kind.as_ref().filter(|k| k.value != "mechanism") {
+        return Err(SceneError::at(
+            line(k),
+            "type",
+            format!("unknown scene type `{}` (mechanism, function)", k.value),
+        ));
+    }
     let mut model = Model {
         gravity: match &spec.gravity {
             Some(g) => vec3(g, Dim::ACCELERATION, "gravity")?,
@@ -953,7 +964,12 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         .map_or(Ok(1), |q| count(q, "record.every"))?;
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
-        params: integrator(&spec.integrator)?,
+        probes: super::probes::probes(&model, &spec.probes)?,
+        params: {
+            let mut p = IntegrationParameters::default();
+            apply_integrator(&spec.integrator, &mut p, "integrator")?;
+            p
+        },
         model,
         duration,
         record_every,

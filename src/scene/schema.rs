@@ -12,6 +12,9 @@ pub type Name = Spanned<String>;
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
+    /// `mechanism` (the default); analytic scenes say `function` (see `function.rs`).
+    #[serde(rename = "type")]
+    pub kind: Option<Name>,
     pub name: Option<String>,
     pub description: Option<String>,
     /// Simulated time span.
@@ -29,6 +32,9 @@ pub struct SceneSpec {
     pub joints: Vec<JointSpec>,
     #[serde(default)]
     pub record: RecordSpec,
+    /// Named outputs of a run (the study's outputs).
+    #[serde(default)]
+    pub probes: Vec<ProbeSpec>,
 }
 
 /// An ideal joint. The anchor and axis are given either in world coordinates at the
@@ -249,4 +255,99 @@ pub struct LoadSpec {
     pub torque_table: Option<Spanned<Vec<Vec<Quantity>>>>,
     /// `world` (default) or `body`.
     pub frame: Option<Name>,
+}
+
+/// A named output of a run: the time of an `event`, or a `measure` taken `at` a time or
+/// event (default: the end of the run) or reduced (`max`, `min`, `mean`) over the window
+/// [`from`, `to`] (default: the whole run).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    pub name: Name,
+    pub event: Option<Spanned<EventSpec>>,
+    pub measure: Option<Spanned<MeasureSpec>>,
+    /// `at` (default), `max`, `min` or `mean`.
+    pub reduce: Option<Name>,
+    pub at: Option<Spanned<TimeRef>>,
+    pub from: Option<Spanned<TimeRef>>,
+    pub to: Option<Spanned<TimeRef>>,
+}
+
+/// Exactly one of: `closes: CONTACT` (its normal impulse becomes positive), `opens:
+/// CONTACT` (its normal impulse returns to zero), or `crosses: VALUE` of `measure`
+/// (linearly interpolated between steps). `occurrence` counts from 1.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EventSpec {
+    pub closes: Option<Name>,
+    pub opens: Option<Name>,
+    pub crosses: Option<Q>,
+    pub measure: Option<Spanned<MeasureSpec>>,
+    /// For `crosses`: `up`, `down` or `either` (default).
+    pub direction: Option<Name>,
+    pub occurrence: Option<Q>,
+}
+
+/// Exactly one of: `gap: CONTACT` (smallest gap of a contact pair or clearance joint, m),
+/// `contact_force: CONTACT` (total normal force over the last step, N), `distance`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasureSpec {
+    pub gap: Option<Name>,
+    pub contact_force: Option<Name>,
+    pub distance: Option<Spanned<DistanceSpec>>,
+}
+
+/// (p_to − p_from) · axis, with the axis fixed in the world (default) or in a body's frame.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DistanceSpec {
+    pub from: PointRefSpec,
+    pub to: PointRefSpec,
+    pub axis: Vector,
+    /// `world` (default) or the name of the body whose frame carries the axis.
+    pub frame: Option<Name>,
+}
+
+/// A point fixed in a body (body frame) or in the world (`ground`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointRefSpec {
+    pub body: Name,
+    pub point: Option<Vector>,
+}
+
+/// A time: a quantity ("20 ms") or the name of an event probe.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TimeRef {
+    Time(Quantity),
+    Probe(String),
+}
+
+impl<'de> Deserialize<'de> for TimeRef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = TimeRef;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a time (\"20 ms\") or the name of an event probe")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<TimeRef, E> {
+                Ok(TimeRef::Time(Quantity { si: v, dim: None }))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<TimeRef, E> {
+                self.visit_f64(v as f64)
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<TimeRef, E> {
+                self.visit_f64(v as f64)
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TimeRef, E> {
+                Ok(match super::units::parse_quantity(v) {
+                    Ok(q) => TimeRef::Time(q),
+                    Err(_) => TimeRef::Probe(v.trim().to_string()),
+                })
+            }
+        }
+        d.deserialize_any(V)
+    }
 }

@@ -29,6 +29,28 @@ impl Dim {
         Dim(self.0 + o.0 * exp, self.1 + o.1 * exp, self.2 + o.2 * exp)
     }
 
+    /// The SI unit of the dimension, as written in output metadata ("m", "N", "1").
+    pub fn si_unit(self) -> String {
+        let named = [
+            (Dim::NONE, "1"),
+            (Dim::LENGTH, "m"),
+            (Dim::MASS, "kg"),
+            (Dim::TIME, "s"),
+            (Dim::VELOCITY, "m/s"),
+            (Dim::ACCELERATION, "m/s^2"),
+            (Dim::ANGULAR_VELOCITY, "rad/s"),
+            (Dim::FORCE, "N"),
+            (Dim::TORQUE, "N*m"),
+            (Dim::STIFFNESS, "N/m"),
+            (Dim::INERTIA, "kg*m^2"),
+        ];
+        named
+            .iter()
+            .find(|(d, _)| *d == self)
+            .map(|(_, n)| n.to_string())
+            .unwrap_or_else(|| format!("m^{}*kg^{}*s^{}", self.0, self.1, self.2))
+    }
+
     /// Human name of the dimension, for error messages.
     pub fn describe(self) -> String {
         let named = [

@@ -1,0 +1,314 @@
+//! Probes: the named outputs of a run (a functional condition, an event time), evaluated
+//! online while the simulation steps, so that a sample keeps a few numbers and no trajectory.
+
+use crate::integrator::Simulation;
+use crate::mechanics::{BodyRef, Pose};
+use nalgebra::Vector3;
+
+/// A scalar read off the state after a step.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Measure {
+    /// Smallest gap over these contact candidates (m).
+    Gap(Vec<usize>),
+    /// Total normal impulse of these candidates over the last step divided by h (N).
+    ContactForce(Vec<usize>),
+    /// (p_to − p_from) · axis; the axis is fixed in `frame` (world when `None`).
+    Distance {
+        from: (BodyRef, Vector3<f64>),
+        to: (BodyRef, Vector3<f64>),
+        axis: Vector3<f64>,
+        frame: BodyRef,
+    },
+}
+
+fn world_point(poses: &[Pose], (body, p): &(BodyRef, Vector3<f64>)) -> Vector3<f64> {
+    match body {
+        Some(i) => poses[*i].point(p),
+        None => *p,
+    }
+}
+
+impl Measure {
+    pub fn value(&self, sim: &Simulation) -> f64 {
+        match self {
+            Measure::Gap(ids) => ids
+                .iter()
+                .map(|&i| sim.contact_points()[i].gap())
+                .fold(f64::INFINITY, f64::min),
+            Measure::ContactForce(ids) => {
+                ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.params.h
+            }
+            Measure::Distance {
+                from,
+                to,
+                axis,
+                frame,
+            } => {
+                let poses = &sim.state.poses;
+                let axis = match frame {
+                    Some(b) => poses[*b].dir(axis),
+                    None => *axis,
+                };
+                (world_point(poses, to) - world_point(poses, from)).dot(&axis)
+            }
+        }
+    }
+}
+
+/// A time given as a number or as the time of an event probe (by index).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeRef {
+    Time(f64),
+    Probe(usize),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    Up,
+    Down,
+    Either,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Event {
+    /// The candidates' total normal impulse becomes positive.
+    Closes(Vec<usize>),
+    /// The candidates' total normal impulse returns to zero.
+    Opens(Vec<usize>),
+    Crosses {
+        measure: Measure,
+        threshold: f64,
+        direction: Direction,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reduce {
+    At,
+    Max,
+    Min,
+    Mean,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProbeKind {
+    /// The time of the `occurrence`-th event (from 1).
+    Event { event: Event, occurrence: usize },
+    Value {
+        measure: Measure,
+        reduce: Reduce,
+        /// For `Reduce::At`: when (default: the end of the run).
+        at: Option<TimeRef>,
+        from: Option<TimeRef>,
+        to: Option<TimeRef>,
+    },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Probe {
+    pub name: String,
+    /// SI unit of the value ("s", "m", "N").
+    pub unit: String,
+    pub kind: ProbeKind,
+}
+
+/// Per-probe progress during a run.
+#[derive(Clone, Debug, Default)]
+struct Progress {
+    /// The final value, once known.
+    value: Option<f64>,
+    /// Events: occurrences so far; values: samples in the window.
+    count: usize,
+    /// Events: whether the contact was closed after the previous step; values: running
+    /// reduction.
+    closed: bool,
+    acc: f64,
+    /// The previous observation (t, measure), to interpolate crossings and `at` times.
+    previous: Option<(f64, f64)>,
+}
+
+/// Observes a simulation step by step and produces every probe's value.
+pub struct ProbeRecorder<'a> {
+    probes: &'a [Probe],
+    progress: Vec<Progress>,
+}
+
+impl<'a> ProbeRecorder<'a> {
+    pub fn new(probes: &'a [Probe]) -> Self {
+        ProbeRecorder {
+            probes,
+            progress: vec![Progress::default(); probes.len()],
+        }
+    }
+
+    /// The time of an event probe, if it happened.
+    fn time(&self, r: TimeRef) -> Option<f64> {
+        match r {
+            TimeRef::Time(t) => Some(t),
+            TimeRef::Probe(i) => self.progress[i].value,
+        }
+    }
+
+    /// Updates every probe with the state after a step (and once with the initial state).
+    pub fn observe(&mut self, sim: &Simulation) {
+        let t = sim.state.t;
+        let half_step = 0.5 * sim.params.h;
+        // events first, so that a window opened by an event includes the event's step
+        for (p, g) in self.probes.iter().zip(self.progress.iter_mut()) {
+            let ProbeKind::Event { event, occurrence } = &p.kind else {
+                continue;
+            };
+            if g.value.is_some() {
+                continue;
+            }
+            let hit = match event {
+                Event::Closes(ids) | Event::Opens(ids) => {
+                    let closed = ids.iter().any(|&i| sim.impulses()[i].x > 0.0);
+                    let hit = match event {
+                        Event::Closes(_) => closed && !g.closed,
+                        _ => !closed && g.closed,
+                    };
+                    g.closed = closed;
+                    hit.then_some(t)
+                }
+                Event::Crosses {
+                    measure,
+                    threshold,
+                    direction,
+                } => {
+                    let v = measure.value(sim);
+                    let hit = g.previous.and_then(|(t0, v0)| {
+                        let up = v0 < *threshold && v >= *threshold;
+                        let down = v0 > *threshold && v <= *threshold;
+                        let wanted = match direction {
+                            Direction::Up => up,
+                            Direction::Down => down,
+                            Direction::Either => up || down,
+                        };
+                        wanted.then(|| t0 + (t - t0) * (threshold - v0) / (v - v0))
+                    });
+                    g.previous = Some((t, v));
+                    hit
+                }
+            };
+            if let Some(when) = hit {
+                g.count += 1;
+                if g.count == *occurrence {
+                    g.value = Some(when);
+                }
+            }
+        }
+        for i in 0..self.probes.len() {
+            let ProbeKind::Value {
+                measure,
+                reduce,
+                at,
+                from,
+                to,
+            } = &self.probes[i].kind
+            else {
+                continue;
+            };
+            if self.progress[i].value.is_some() {
+                continue;
+            }
+            if *reduce == Reduce::At {
+                let v = measure.value(sim);
+                if let Some(at) = at.and_then(|r| self.time(r)) {
+                    let g = &mut self.progress[i];
+                    if t >= at - half_step * 1e-6 {
+                        // linear interpolation between the steps around a given time; an
+                        // event's time is a step end, where this gives the step's value
+                        g.value = Some(match g.previous {
+                            Some((t0, v0)) if t > t0 && at > t0 => v0 + (v - v0) * (at - t0) / (t - t0),
+                            _ => v,
+                        });
+                    }
+                }
+                self.progress[i].previous = Some((t, v));
+                continue;
+            }
+            let started = match from {
+                None => true,
+                Some(r) => self.time(*r).is_some_and(|t0| t >= t0 - half_step),
+            };
+            let ended = to.and_then(|r| self.time(r)).is_some_and(|t1| t > t1 + half_step);
+            let g = &mut self.progress[i];
+            if ended {
+                if g.count > 0 {
+                    g.value = Some(if *reduce == Reduce::Mean {
+                        g.acc / g.count as f64
+                    } else {
+                        g.acc
+                    });
+                }
+                continue;
+            }
+            if !started {
+                continue;
+            }
+            let v = measure.value(sim);
+            g.acc = match (g.count, reduce) {
+                (0, _) => v,
+                (_, Reduce::Max) => g.acc.max(v),
+                (_, Reduce::Min) => g.acc.min(v),
+                _ => g.acc + v,
+            };
+            g.count += 1;
+        }
+    }
+
+    /// Whether every probe is known, so that the run can stop early.
+    pub fn done(&self) -> bool {
+        self.progress.iter().all(|g| g.value.is_some())
+    }
+
+    /// The values at the end of the run, or why a probe has none (an event that did not
+    /// happen, an empty window).
+    pub fn finish(mut self, t_end: f64) -> Result<Vec<f64>, String> {
+        for (i, p) in self.probes.iter().enumerate() {
+            if self.progress[i].value.is_some() {
+                continue;
+            }
+            if let ProbeKind::Value {
+                to: Some(TimeRef::Probe(k)),
+                ..
+            } = p.kind
+            {
+                if self.progress[k].value.is_none() {
+                    return Err(format!(
+                        "probe `{}`: its window ends at event `{}`, which did not happen by t = {t_end} s",
+                        p.name, self.probes[k].name
+                    ));
+                }
+            }
+            let g = &mut self.progress[i];
+            match &p.kind {
+                ProbeKind::Event { occurrence, .. } => {
+                    return Err(format!(
+                        "probe `{}`: the event happened {} time(s) by t = {t_end} s, occurrence {occurrence} was asked for",
+                        p.name, g.count
+                    ))
+                }
+                ProbeKind::Value { reduce, at, .. } => {
+                    if *reduce == Reduce::At && at.is_none() {
+                        g.value = g.previous.map(|(_, v)| v);
+                    } else if *reduce != Reduce::At && g.count > 0 {
+                        g.value = Some(if *reduce == Reduce::Mean {
+                            g.acc / g.count as f64
+                        } else {
+                            g.acc
+                        });
+                    }
+                    if g.value.is_none() {
+                        return Err(format!(
+                            "probe `{}`: its time or window was not reached by t = {t_end} s",
+                            p.name
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(self.progress.iter().map(|g| g.value.unwrap_or(f64::NAN)).collect())
+    }
+}

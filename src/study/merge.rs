@@ -1,0 +1,98 @@
+//! `mc-study merge` (all parts → `OUT/results.parquet` sorted by sample id, then the
+//! summary) and `mc-study status` (done / missing / failed per shard).
+
+use super::manifest::{Manifest, Ranges};
+use super::runner::{part_files, Shard};
+use super::store::{self, Row, Table};
+use super::summary::Summary;
+use anyhow::{bail, Result};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Every row of every part, one per sample id (parts of a resumed or re-split run may
+/// repeat a sample; its rows are identical but for the wall time, and the first is kept).
+pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
+    let manifest = Manifest::load(out)?;
+    let mut rows: Vec<Row> = Vec::new();
+    let mut metadata = HashMap::new();
+    for p in part_files(out)? {
+        let t = store::read(&p)?;
+        if t.metadata.get(store::META_HASH) != Some(&manifest.study_hash) {
+            bail!("{} belongs to another study (its hash differs from manifest.json)", p.display());
+        }
+        if t.columns != manifest.columns {
+            bail!("{} has other columns than manifest.json", p.display());
+        }
+        metadata = t.metadata;
+        rows.extend(t.rows);
+    }
+    rows.sort_by_key(|r| r.id);
+    rows.dedup_by_key(|r| r.id);
+    let columns = manifest.columns.clone();
+    Ok((manifest, Table { columns, rows, metadata }))
+}
+
+pub struct Merged {
+    pub path: PathBuf,
+    pub rows: u64,
+    pub missing: Ranges,
+    pub summary: Summary,
+}
+
+/// Writes `OUT/results.parquet`, `OUT/summary.json`; refuses (unless `allow_partial`) when
+/// samples are missing and names them.
+pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
+    let (manifest, mut table) = collect(out)?;
+    let missing = Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
+    if !missing.is_empty() && !allow_partial {
+        bail!(
+            "{} of {} samples are missing: {}. Run the study again on this directory to complete it (it resumes), see `mc-study status {}`, or merge what is there with --allow-partial.",
+            missing.count(),
+            manifest.runs,
+            missing.describe(8),
+            out.display()
+        );
+    }
+    if table.rows.is_empty() {
+        bail!("{} holds no samples yet", out.display());
+    }
+    table.metadata.insert("mc_study.complete".into(), missing.is_empty().to_string());
+    let path = out.join("results.parquet");
+    store::write(&path, &table.columns, &table.rows, &table.metadata)?;
+    let summary = Summary::of(&manifest.study_name, &table, &manifest.limits);
+    let tmp = out.join(format!(".summary.json.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, summary.to_json())?;
+    std::fs::rename(&tmp, out.join("summary.json"))?;
+    Ok(Merged { path, rows: table.rows.len() as u64, missing, summary })
+}
+
+/// Per shard of an `n`-way split: (shard, samples, done, failed, missing ranges).
+pub struct ShardStatus {
+    pub shard: Shard,
+    pub samples: u64,
+    pub done: u64,
+    pub failed: u64,
+    pub missing: Ranges,
+}
+
+pub fn status(out: &Path, shards: Option<u64>) -> Result<(Manifest, Vec<ShardStatus>)> {
+    let (manifest, table) = collect(out)?;
+    let n = shards.unwrap_or(manifest.shards).max(1);
+    let done = Ranges::from_ids(table.rows.iter().map(|r| r.id).collect());
+    let v = (0..n)
+        .map(|index| {
+            let shard = Shard { index, count: n };
+            let (a, b) = shard.range(manifest.runs);
+            let in_shard = |id: u64| (a..b).contains(&id);
+            let missing = done.missing_in(a, b);
+            ShardStatus {
+                shard,
+                samples: b - a,
+                done: (b - a) - missing.count(),
+                failed: table.rows.iter().filter(|r| in_shard(r.id) && r.failed()).count() as u64,
+                missing,
+            }
+        })
+        .collect();
+    Ok((manifest, v))
+}

@@ -1,0 +1,335 @@
+//! Monte-Carlo studies: the study file (scene, design, input distributions, outputs,
+//! limits, fidelity), the sampled inputs of each run, the parallel runner and its Parquet
+//! store, merging, and the summary statistics. See DESIGN.md §5.
+
+pub mod design;
+pub mod distribution;
+pub mod manifest;
+pub mod merge;
+pub mod runner;
+mod schema;
+pub mod sobol;
+pub mod statistics;
+pub mod store;
+pub mod subject;
+pub mod summary;
+
+use crate::scene::schema::{Name, Q};
+use crate::scene::units::Dim;
+use crate::scene::{apply_integrator, SceneError};
+pub use design::{Design, DesignKind};
+pub use distribution::Distribution;
+use schema::{DistributionSpec, StudySpec};
+use serde_saphyr::Spanned;
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+pub use subject::{Diagnostics, Outcome, Subject};
+
+/// Study errors have the shape of scene errors: file, line, field, message.
+pub type StudyError = SceneError;
+
+/// A sampled input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parameter {
+    pub path: String,
+    pub distribution: Distribution,
+    /// SI unit of the values ("m", "1"; empty for function inputs).
+    pub unit: String,
+}
+
+/// A kept output with its optional specification limits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Output {
+    pub name: String,
+    pub unit: String,
+    /// Index among the subject's outputs.
+    pub index: usize,
+    pub lower: Option<f64>,
+    pub upper: Option<f64>,
+}
+
+/// A validated study, ready to run.
+#[derive(Clone, Debug)]
+pub struct Study {
+    pub name: String,
+    pub description: String,
+    /// The study file's text and the scene file's text (stored with the results).
+    pub text: String,
+    pub scene_text: String,
+    pub scene_path: PathBuf,
+    pub subject: Subject,
+    pub design: Design,
+    pub seed: u64,
+    pub parameters: Vec<Parameter>,
+    pub outputs: Vec<Output>,
+    pub output_dir: PathBuf,
+}
+
+fn line<T>(s: &Spanned<T>) -> Option<u64> {
+    Some(s.referenced.line()).filter(|&l| l > 0)
+}
+
+fn quantity(q: &Q, dim: Option<Dim>, field: &str) -> Result<f64, StudyError> {
+    let v = match dim {
+        Some(d) => q.value.value(d).map_err(|m| SceneError::at(line(q), field, m))?,
+        None => q.value.si,
+    };
+    if v.is_nan() {
+        return Err(SceneError::at(line(q), field, "must be a number"));
+    }
+    Ok(v)
+}
+
+fn distribution(spec: &Spanned<DistributionSpec>, dim: Option<Dim>, field: &str) -> Result<Distribution, StudyError> {
+    let f = |s: &str| format!("{field}.{s}");
+    let q = |x: &Q, name: &str| quantity(x, dim, &f(name));
+    let finite = |x: &Q, name: &str| -> Result<f64, StudyError> {
+        let v = q(x, name)?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(SceneError::at(line(x), f(name), "must be finite"))
+        }
+    };
+    let (d, kind) = match &spec.value {
+        DistributionSpec::Normal { mean, sd } => (
+            Distribution::Normal { mean: finite(mean, "normal.mean")?, sd: finite(sd, "normal.sd")? },
+            "normal",
+        ),
+        DistributionSpec::TruncatedNormal { mean, sd, lower, upper } => (
+            Distribution::TruncatedNormal {
+                mean: finite(mean, "truncated_normal.mean")?,
+                sd: finite(sd, "truncated_normal.sd")?,
+                lower: lower.as_ref().map_or(Ok(f64::NEG_INFINITY), |x| q(x, "truncated_normal.lower"))?,
+                upper: upper.as_ref().map_or(Ok(f64::INFINITY), |x| q(x, "truncated_normal.upper"))?,
+            },
+            "truncated_normal",
+        ),
+        DistributionSpec::Uniform { lower, upper } => (
+            Distribution::Uniform { lower: finite(lower, "uniform.lower")?, upper: finite(upper, "uniform.upper")? },
+            "uniform",
+        ),
+        DistributionSpec::Lognormal { mean, sd } => {
+            let (m, s) = (finite(mean, "lognormal.mean")?, finite(sd, "lognormal.sd")?);
+            if s < 0.0 {
+                return Err(SceneError::at(line(sd), f("lognormal.sd"), format!("must be ≥ 0, got {s}")));
+            }
+            (
+                Distribution::lognormal(m, s).map_err(|e| SceneError::at(line(mean), f("lognormal.mean"), e))?,
+                "lognormal",
+            )
+        }
+        DistributionSpec::Triangular { lower, mode, upper } => (
+            Distribution::Triangular {
+                lower: finite(lower, "triangular.lower")?,
+                mode: finite(mode, "triangular.mode")?,
+                upper: finite(upper, "triangular.upper")?,
+            },
+            "triangular",
+        ),
+        DistributionSpec::Fixed(v) => (Distribution::Fixed(finite(v, "fixed")?), "fixed"),
+    };
+    d.validate().map_err(|m| {
+        let l = match &spec.value {
+            DistributionSpec::Normal { sd, .. } | DistributionSpec::TruncatedNormal { sd, .. } if m.starts_with("sd") => line(sd),
+            _ => line(spec),
+        };
+        SceneError::at(l, f(kind), m)
+    })?;
+    Ok(d)
+}
+
+impl Study {
+    /// Reads and validates a study file; `samples` overrides its `samples`.
+    pub fn load(path: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: Some(file.clone()),
+            line: None,
+            field: String::new(),
+            message: format!("cannot read the study file: {e}"),
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Study::from_yaml(&text, &file, base, samples)
+    }
+
+    /// Parses and validates study text; `base` is the directory the scene path is relative
+    /// to.
+    pub fn from_yaml(text: &str, file: &str, base: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
+        let spec: StudySpec = serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
+        Study::build(spec, text, base, samples).map_err(|e| if e.file.is_none() { e.in_file(file) } else { e })
+    }
+
+    fn build(spec: StudySpec, text: &str, base: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
+        let scene_path = base.join(&spec.scene.value);
+        let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
+            SceneError::at(line(&spec.scene), "scene", format!("cannot read `{}`: {e}", scene_path.display()))
+        })?;
+        let mut subject = Subject::from_yaml(&scene_text, &scene_path.display().to_string())?;
+
+        let n = match samples {
+            Some(n) => n as f64,
+            None => quantity(&spec.samples, Some(Dim::NONE), "samples")?,
+        };
+        if !(n >= 1.0 && n.fract() == 0.0 && n <= 1e12) {
+            return Err(SceneError::at(
+                if samples.is_some() { None } else { line(&spec.samples) },
+                "samples",
+                format!("must be a whole number ≥ 1, got {n}"),
+            ));
+        }
+        let kind = match &spec.design {
+            None => DesignKind::Random,
+            Some(d) => DesignKind::parse(&d.value).ok_or_else(|| {
+                SceneError::at(line(d), "design", format!("unknown design `{}` (random, lhs, sobol, saltelli)", d.value))
+            })?,
+        };
+
+        let mut parameters: Vec<Parameter> = Vec::new();
+        for (i, p) in spec.parameters.iter().enumerate() {
+            let field = format!("parameters[{i}]");
+            if parameters.iter().any(|q| q.path == p.path.value) {
+                return Err(SceneError::at(line(&p.path), format!("{field}.path"), format!("`{}` is sampled twice", p.path.value)));
+            }
+            let dim = subject
+                .parameter_dim(&p.path.value)
+                .map_err(|m| SceneError::at(line(&p.path), format!("{field}.path"), m))?;
+            let distribution = distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
+            parameters.push(Parameter {
+                path: p.path.value.clone(),
+                distribution,
+                unit: dim.map(|d| d.si_unit()).unwrap_or_default(),
+            });
+        }
+
+        let available = subject.outputs();
+        let names = |v: &[(String, String)]| v.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
+        let find = |n: &Name, field: &str| {
+            available.iter().position(|(a, _)| *a == n.value).ok_or_else(|| {
+                SceneError::at(line(n), field, format!("unknown output `{}` (the scene's outputs: {})", n.value, names(&available)))
+            })
+        };
+        let mut outputs: Vec<Output> = Vec::new();
+        match &spec.outputs {
+            Some(list) => {
+                for (i, n) in list.iter().enumerate() {
+                    let index = find(n, &format!("outputs[{i}]"))?;
+                    if outputs.iter().any(|o| o.index == index) {
+                        return Err(SceneError::at(line(n), format!("outputs[{i}]"), format!("`{}` is listed twice", n.value)));
+                    }
+                    outputs.push(Output { name: n.value.clone(), unit: available[index].1.clone(), index, lower: None, upper: None });
+                }
+            }
+            None => {
+                for (index, (name, unit)) in available.iter().enumerate() {
+                    outputs.push(Output { name: name.clone(), unit: unit.clone(), index, lower: None, upper: None });
+                }
+            }
+        }
+        if outputs.is_empty() {
+            return Err(SceneError::at(None, "outputs", "the study keeps no output (the scene defines no probes?)"));
+        }
+        for (i, l) in spec.limits.iter().enumerate() {
+            let field = format!("limits[{i}]");
+            let index = find(&l.output, &format!("{field}.output"))?;
+            let dim = unit_dim(&available[index].1);
+            let Some(o) = outputs.iter_mut().find(|o| o.index == index) else {
+                return Err(SceneError::at(line(&l.output), format!("{field}.output"), format!("`{}` is not among the study's outputs", l.output.value)));
+            };
+            o.lower = l.lower.as_ref().map(|q| quantity(q, dim, &format!("{field}.lower"))).transpose()?;
+            o.upper = l.upper.as_ref().map(|q| quantity(q, dim, &format!("{field}.upper"))).transpose()?;
+            if let (Some(a), Some(b)) = (o.lower, o.upper) {
+                if a >= b {
+                    return Err(SceneError::at(line(&l.output), field, format!("needs lower < upper, got [{a}, {b}]")));
+                }
+            }
+            if o.lower.is_none() && o.upper.is_none() {
+                return Err(SceneError::at(line(&l.output), field, "give `lower`, `upper` or both"));
+            }
+        }
+
+        if let Some(f) = &spec.fidelity {
+            match &mut subject {
+                Subject::Mechanism(scene) => apply_integrator(f, &mut scene.params, "fidelity")?,
+                Subject::Function(_) => {
+                    return Err(SceneError::at(None, "fidelity", "a function scene has no integrator to set"));
+                }
+            }
+        }
+
+        let seed = spec.seed.as_ref().map_or(0, |s| s.value);
+        let design = Design::new(kind, parameters.len(), n as u64, seed)
+            .map_err(|m| SceneError::at(spec.design.as_ref().and_then(line), "design", m))?;
+        if parameters.is_empty() && kind != DesignKind::Random {
+            return Err(SceneError::at(spec.design.as_ref().and_then(line), "design", "needs at least one parameter"));
+        }
+        let name = spec
+            .name
+            .as_ref()
+            .map(|n| n.value.clone())
+            .unwrap_or_else(|| match &subject {
+                Subject::Mechanism(s) => s.name.clone(),
+                Subject::Function(f) => f.name.clone(),
+            });
+        let output_dir = spec
+            .output
+            .as_ref()
+            .map_or_else(|| PathBuf::from("results").join(&name), |o| PathBuf::from(&o.value));
+        Ok(Study {
+            name,
+            description: spec.description.clone().unwrap_or_default(),
+            text: text.to_string(),
+            scene_text,
+            scene_path,
+            subject,
+            design,
+            seed,
+            parameters,
+            outputs,
+            output_dir,
+        })
+    }
+
+    /// Total runs (sample ids 0..runs).
+    pub fn runs(&self) -> u64 {
+        self.design.runs()
+    }
+
+    /// Sample i's inputs (SI), in `parameters` order.
+    pub fn inputs(&self, i: u64) -> Vec<f64> {
+        self.design
+            .point(i)
+            .iter()
+            .zip(&self.parameters)
+            .map(|(&u, p)| p.distribution.quantile(u))
+            .collect()
+    }
+
+    /// Runs sample i.
+    pub fn run_sample(&self, i: u64) -> (Vec<f64>, Outcome) {
+        let x = self.inputs(i);
+        let params: Vec<(&str, f64)> = self.parameters.iter().map(|p| p.path.as_str()).zip(x.iter().copied()).collect();
+        let selected: Vec<usize> = self.outputs.iter().map(|o| o.index).collect();
+        let outcome = self.subject.run(&params, &selected);
+        (x, outcome)
+    }
+
+    /// SHA-256 over what determines the results: the tool version, the study and scene
+    /// texts and the effective sample count.
+    pub fn hash(&self) -> String {
+        let mut h = Sha256::new();
+        h.update(format!("mc-study {}\n", env!("CARGO_PKG_VERSION")));
+        h.update(self.text.as_bytes());
+        h.update(b"\n--- scene ---\n");
+        h.update(self.scene_text.as_bytes());
+        h.update(format!("\n--- samples {} ---\n", self.design.base));
+        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+/// The dimension of an SI unit label produced by [`Dim::si_unit`] (`None` if unknown).
+fn unit_dim(unit: &str) -> Option<Dim> {
+    [Dim::NONE, Dim::LENGTH, Dim::MASS, Dim::TIME, Dim::VELOCITY, Dim::FORCE, Dim::TORQUE]
+        .into_iter()
+        .find(|d| d.si_unit() == unit && !unit.is_empty())
+}

@@ -1,0 +1,375 @@
+//! The batch: rayon workers run the pending samples of a shard; one writer thread owns all
+//! I/O, receives rows through a bounded channel and writes them as part files. A killed
+//! run loses at most the rows not yet in a part; a resumed run skips every sample found in
+//! a part, whichever run or shard wrote it.
+
+use super::manifest::{DirLock, Manifest, OutputLimits, Ranges};
+use super::store::{self, Columns, Row};
+use super::Study;
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Shard `index` of `count`: the contiguous block of sample ids
+/// [runs·index/count, runs·(index+1)/count).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u64,
+    pub count: u64,
+}
+
+impl Shard {
+    pub const WHOLE: Shard = Shard { index: 0, count: 1 };
+
+    /// Parses `I/N`; `/N` takes I from `SLURM_ARRAY_TASK_ID`.
+    pub fn parse(text: &str) -> Result<Shard, String> {
+        let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard `{text}`: expected I/N (e.g. 3/8) or /N"))?;
+        let count: u64 = n.trim().parse().map_err(|_| format!("--shard `{text}`: N must be a whole number ≥ 1"))?;
+        let index: u64 = if i.trim().is_empty() {
+            let v = std::env::var("SLURM_ARRAY_TASK_ID")
+                .map_err(|_| format!("--shard `{text}` names no index and SLURM_ARRAY_TASK_ID is not set"))?;
+            v.trim().parse().map_err(|_| format!("SLURM_ARRAY_TASK_ID = `{v}` is not a whole number"))?
+        } else {
+            i.trim().parse().map_err(|_| format!("--shard `{text}`: I must be a whole number"))?
+        };
+        if count == 0 || index >= count {
+            return Err(format!("--shard {index}/{count}: needs 0 ≤ I < N"));
+        }
+        Ok(Shard { index, count })
+    }
+
+    pub fn range(&self, runs: u64) -> (u64, u64) {
+        let at = |k: u64| (u128::from(runs) * u128::from(k) / u128::from(self.count)) as u64;
+        (at(self.index), at(self.index + 1))
+    }
+
+    /// The part-file label, `3of8`.
+    pub fn label(&self) -> String {
+        format!("{}of{}", self.index, self.count)
+    }
+}
+
+pub struct RunOptions {
+    pub out: PathBuf,
+    pub threads: Option<usize>,
+    pub shard: Shard,
+    /// Show the progress bar (it is hidden anyway when stderr is not a terminal).
+    pub progress: bool,
+    /// A part is written when it holds this many rows…
+    pub rows_per_part: usize,
+    /// …or when its oldest row is this old.
+    pub seconds_per_part: f64,
+    /// Set (by Ctrl-C) to stop starting samples; the rows done are written before return.
+    pub stop: Arc<AtomicBool>,
+}
+
+impl RunOptions {
+    pub fn new(out: PathBuf) -> Self {
+        RunOptions {
+            out,
+            threads: None,
+            shard: Shard::WHOLE,
+            progress: true,
+            rows_per_part: 1024,
+            seconds_per_part: 30.0,
+            stop: Arc::new(AtomicBool::new(false)),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunReport {
+    /// Samples of the shard already done before this run.
+    pub skipped: u64,
+    pub done: u64,
+    pub failed: u64,
+    pub parts: u64,
+    pub interrupted: bool,
+    pub wall_seconds: f64,
+    /// Sample ids still missing in the whole study after this run.
+    pub missing: Ranges,
+}
+
+pub fn parts_dir(out: &Path) -> PathBuf {
+    out.join("parts")
+}
+
+/// Every part file in `OUT/parts`, sorted by name.
+pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
+    let dir = parts_dir(out);
+    let mut v = Vec::new();
+    if dir.exists() {
+        for e in std::fs::read_dir(&dir)? {
+            let p = e?.path();
+            let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+            if name.starts_with("part-") && name.ends_with(".parquet") {
+                v.push(p);
+            }
+        }
+    }
+    v.sort();
+    Ok(v)
+}
+
+/// The sample ids found in the part files (and, per file, the count).
+fn completed(out: &Path, hash: &str) -> Result<Ranges> {
+    let mut all = Ranges::default();
+    for p in part_files(out)? {
+        let t = store::read(&p)?;
+        if t.metadata.get(store::META_HASH).map(String::as_str) != Some(hash) {
+            bail!("{} belongs to another study (its hash differs); nothing was overwritten", p.display());
+        }
+        all = all.union(&Ranges::from_ids(t.rows.iter().map(|r| r.id).collect()));
+    }
+    Ok(all)
+}
+
+impl Study {
+    pub fn columns(&self) -> Columns {
+        Columns {
+            inputs: self.parameters.iter().map(|p| (p.path.clone(), p.unit.clone())).collect(),
+            outputs: self.outputs.iter().map(|o| (o.name.clone(), o.unit.clone())).collect(),
+        }
+    }
+
+    pub fn file_metadata(&self) -> HashMap<String, String> {
+        HashMap::from([
+            (store::META_HASH.to_string(), self.hash()),
+            (store::META_STUDY.to_string(), self.text.clone()),
+            (store::META_SCENE.to_string(), self.scene_text.clone()),
+            (store::META_VERSION.to_string(), format!("mc-study {}", env!("CARGO_PKG_VERSION"))),
+            (store::META_NAME.to_string(), self.name.clone()),
+        ])
+    }
+
+    fn manifest(&self, shards: u64, completed: Ranges) -> Manifest {
+        Manifest {
+            tool: format!("mc-study {}", env!("CARGO_PKG_VERSION")),
+            study_name: self.name.clone(),
+            study_hash: self.hash(),
+            design: self.design.kind.name().to_string(),
+            seed: self.seed,
+            runs: self.runs(),
+            columns: self.columns(),
+            limits: self
+                .outputs
+                .iter()
+                .map(|o| OutputLimits { name: o.name.clone(), lower: o.lower, upper: o.upper })
+                .collect(),
+            shards,
+            completed,
+        }
+    }
+
+    /// The row of sample i.
+    pub fn row(&self, i: u64) -> Row {
+        let (inputs, o) = self.run_sample(i);
+        Row { id: i, inputs, outputs: o.outputs, diagnostics: o.diagnostics, error: o.error }
+    }
+}
+
+/// Claims the shard for this process (two processes never write the same part names).
+fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
+    let p = parts_dir(out).join(format!(".shard-{}.lock", shard.label()));
+    let f = File::options().create(true).truncate(false).write(true).open(&p)?;
+    match f.try_lock() {
+        Ok(()) => Ok(f),
+        Err(std::fs::TryLockError::WouldBlock) => {
+            bail!("shard {}/{} of {} is being run by another process", shard.index, shard.count, out.display())
+        }
+        Err(std::fs::TryLockError::Error(e)) => Err(e).context("locking the shard"),
+    }
+}
+
+/// Creates or reopens OUT for `study`: refuses another study's directory, cleans this
+/// shard's temporary files, and returns the completed ranges found in the parts.
+fn prepare(study: &Study, out: &Path, shard: Shard) -> Result<(Ranges, File)> {
+    std::fs::create_dir_all(parts_dir(out)).with_context(|| format!("creating {}", out.display()))?;
+    let _dir = DirLock::acquire(out)?;
+    let hash = study.hash();
+    if super::manifest::path(out).exists() {
+        Manifest::load(out)?.check_same_study(&hash, out)?;
+    } else if !part_files(out)?.is_empty() {
+        bail!("{} holds part files but no manifest.json; refusing to mix results", out.display());
+    }
+    let shard_lock = lock_shard(out, shard)?;
+    for e in std::fs::read_dir(parts_dir(out))? {
+        let p = e?.path();
+        let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        if name.starts_with(&format!(".part-{}-", shard.label())) && name.ends_with(".tmp") {
+            std::fs::remove_file(&p)?;
+        }
+    }
+    let done = completed(out, &hash)?;
+    study.manifest(shard.count, done.clone()).save(out)?;
+    std::fs::write(out.join("study.yaml"), &study.text)?;
+    Ok((done, shard_lock))
+}
+
+/// The writer: owns every file operation after `prepare`.
+struct Writer<'a> {
+    study: &'a Study,
+    out: &'a Path,
+    shard: Shard,
+    columns: Columns,
+    metadata: HashMap<String, String>,
+    next_seq: u64,
+    rows: Vec<Row>,
+    report: RunReport,
+}
+
+impl Writer<'_> {
+    fn flush(&mut self) -> Result<()> {
+        if self.rows.is_empty() {
+            return Ok(());
+        }
+        let name = format!("part-{}-{:06}.parquet", self.shard.label(), self.next_seq);
+        let path = parts_dir(self.out).join(&name);
+        store::write(&path, &self.columns, &self.rows, &self.metadata)?;
+        self.next_seq += 1;
+        self.report.parts += 1;
+        let ids = Ranges::from_ids(self.rows.iter().map(|r| r.id).collect());
+        self.rows.clear();
+        let _dir = DirLock::acquire(self.out)?;
+        let mut m = Manifest::load(self.out).unwrap_or_else(|_| self.study.manifest(self.shard.count, Ranges::default()));
+        m.completed = m.completed.union(&ids);
+        m.save(self.out)
+    }
+}
+
+fn next_seq(out: &Path, shard: Shard) -> Result<u64> {
+    let prefix = format!("part-{}-", shard.label());
+    let mut next = 0;
+    for p in part_files(out)? {
+        let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        if let Some(seq) = name.strip_prefix(&prefix).and_then(|s| s.strip_suffix(".parquet")) {
+            if let Ok(s) = seq.parse::<u64>() {
+                next = next.max(s + 1);
+            }
+        }
+    }
+    Ok(next)
+}
+
+/// Runs the pending samples of `opts.shard` into `opts.out`.
+pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
+    let start = Instant::now();
+    let out = opts.out.as_path();
+    let (done_before, _shard_lock) = prepare(study, out, opts.shard)?;
+    let (a, b) = opts.shard.range(study.runs());
+    let pending = done_before.missing_in(a, b);
+    let mut writer = Writer {
+        study,
+        out,
+        shard: opts.shard,
+        columns: study.columns(),
+        metadata: study.file_metadata(),
+        next_seq: next_seq(out, opts.shard)?,
+        rows: Vec::new(),
+        report: RunReport { skipped: (b - a) - pending.count(), ..Default::default() },
+    };
+
+    let bar = if opts.progress && std::io::stderr().is_terminal() {
+        let pb = ProgressBar::with_draw_target(Some(pending.count()), ProgressDrawTarget::stderr());
+        pb.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {pos}/{len} samples, {per_sec}, ETA {eta} {msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        pb
+    } else {
+        ProgressBar::hidden()
+    };
+    let logging = opts.progress && !std::io::stderr().is_terminal();
+
+    let pool = {
+        let mut b = rayon::ThreadPoolBuilder::new();
+        if let Some(t) = opts.threads {
+            b = b.num_threads(t);
+        }
+        b.build().context("starting the worker threads")?
+    };
+    let (tx, rx) = mpsc::sync_channel::<Row>(4096);
+    let stop = opts.stop.clone();
+    let total = pending.count();
+
+    let written = std::thread::scope(|scope| -> Result<RunReport> {
+        let stop_w = stop.clone();
+        let bar_w = bar.clone();
+        let handle = scope.spawn(move || -> Result<RunReport> {
+            let mut oldest: Option<Instant> = None;
+            let budget = Duration::from_secs_f64(opts.seconds_per_part);
+            let mut step = || -> Result<bool> {
+                let wait = oldest.map_or(budget, |t| budget.saturating_sub(t.elapsed()));
+                let open = match rx.recv_timeout(wait.max(Duration::from_millis(1))) {
+                    Ok(row) => {
+                        writer.report.done += 1;
+                        if row.failed() {
+                            writer.report.failed += 1;
+                            bar_w.set_message(format!("{} failed", writer.report.failed));
+                        }
+                        bar_w.inc(1);
+                        writer.rows.push(row);
+                        oldest.get_or_insert_with(Instant::now);
+                        true
+                    }
+                    Err(mpsc::RecvTimeoutError::Timeout) => true,
+                    Err(mpsc::RecvTimeoutError::Disconnected) => false,
+                };
+                let due = oldest.is_some_and(|t| t.elapsed() >= budget);
+                if writer.rows.len() >= opts.rows_per_part || due || !open {
+                    writer.flush()?;
+                    oldest = None;
+                    if logging && writer.report.done > 0 {
+                        eprintln!(
+                            "{}: {}/{total} samples of shard {}/{} done ({} failed), {:.1} samples/s",
+                            study.name,
+                            writer.report.done,
+                            opts.shard.index,
+                            opts.shard.count,
+                            writer.report.failed,
+                            writer.report.done as f64 / start.elapsed().as_secs_f64()
+                        );
+                    }
+                }
+                Ok(open)
+            };
+            loop {
+                match step() {
+                    Ok(true) => {}
+                    Ok(false) => break,
+                    Err(e) => {
+                        // stop the workers; rows not yet written are lost, never half-written
+                        stop_w.store(true, Ordering::SeqCst);
+                        return Err(e);
+                    }
+                }
+            }
+            Ok(writer.report)
+        });
+        pool.install(|| {
+            pending.0.par_iter().flat_map(|&(a, b)| (a..b).into_par_iter()).for_each_with(tx, |tx, i| {
+                if stop.load(Ordering::Relaxed) {
+                    return;
+                }
+                let _ = tx.send(study.row(i));
+            });
+        });
+        handle.join().expect("the writer thread does not panic")
+    });
+    bar.finish_and_clear();
+    let mut report = written?;
+    let m = Manifest::load(out)?;
+    report.missing = m.completed.missing_in(0, study.runs());
+    report.interrupted = !m.completed.missing_in(a, b).is_empty();
+    report.wall_seconds = start.elapsed().as_secs_f64();
+    Ok(report)
+}

@@ -1,0 +1,78 @@
+//! The study YAML schema, as serde structs; scalars keep their line for error messages.
+
+use crate::scene::schema::{Name, Q};
+use crate::scene::IntegratorSpec;
+use serde::Deserialize;
+use serde_saphyr::Spanned;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudySpec {
+    pub name: Option<Name>,
+    pub description: Option<String>,
+    /// Scene file, relative to the study file.
+    pub scene: Name,
+    /// Number of samples N (base rows for `saltelli`).
+    pub samples: Q,
+    /// Default 0.
+    pub seed: Option<Spanned<u64>>,
+    /// `random` (default), `lhs`, `sobol` or `saltelli`.
+    pub design: Option<Name>,
+    #[serde(default)]
+    pub parameters: Vec<ParameterSpec>,
+    /// The scene's probes to keep (default: all).
+    pub outputs: Option<Vec<Name>>,
+    /// Specification limits per output name.
+    #[serde(default)]
+    pub limits: Vec<LimitSpec>,
+    /// Integrator overrides (same keys as a scene's `integrator`).
+    pub fidelity: Option<IntegratorSpec>,
+    /// Output directory, relative to the working directory (default `results/<name>`).
+    pub output: Option<Name>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterSpec {
+    /// Scene parameter path, e.g. `joints.J1.clearance`.
+    pub path: Name,
+    pub distribution: Spanned<DistributionSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum DistributionSpec {
+    Normal {
+        mean: Q,
+        sd: Q,
+    },
+    TruncatedNormal {
+        mean: Q,
+        sd: Q,
+        lower: Option<Q>,
+        upper: Option<Q>,
+    },
+    Uniform {
+        lower: Q,
+        upper: Q,
+    },
+    /// Mean and standard deviation of the variable itself.
+    Lognormal {
+        mean: Q,
+        sd: Q,
+    },
+    Triangular {
+        lower: Q,
+        mode: Q,
+        upper: Q,
+    },
+    Fixed(Q),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LimitSpec {
+    pub output: Name,
+    pub lower: Option<Q>,
+    pub upper: Option<Q>,
+}

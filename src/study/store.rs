@@ -1,0 +1,196 @@
+//! The Parquet files of a study: one row per sample (`sample_id`, inputs, outputs,
+//! diagnostics, `status`, `error`), units in field metadata, the study in file metadata.
+//! Every file is written to a temporary name, fsynced and renamed, so that a reader (or a
+//! resumed run) sees a whole file or none.
+
+use super::subject::Diagnostics;
+use anyhow::{bail, Context, Result};
+use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_schema::{DataType, Field, Schema};
+use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::WriterProperties;
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::Path;
+use std::sync::Arc;
+
+/// One sample's row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub id: u64,
+    pub inputs: Vec<f64>,
+    /// NaN (stored as null) for a failed sample.
+    pub outputs: Vec<f64>,
+    pub diagnostics: Diagnostics,
+    pub error: Option<String>,
+}
+
+impl Row {
+    pub fn failed(&self) -> bool {
+        self.error.is_some()
+    }
+}
+
+/// Names and SI units of the input and output columns.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Columns {
+    pub inputs: Vec<(String, String)>,
+    pub outputs: Vec<(String, String)>,
+}
+
+/// Diagnostic columns: (name, unit, description).
+pub const DIAGNOSTICS: [(&str, &str, &str); 5] = [
+    ("steps", "1", "time steps taken"),
+    ("max_penetration", "m", "largest penetration of any contact at a step end"),
+    ("max_solver_residual", "1", "largest contact-solver residual of any step"),
+    ("nonconverged_steps", "1", "steps whose solver, Newton loop or projection did not converge (counted per kind)"),
+    ("wall_ms", "ms", "wall time of the sample (the only column that differs between identical runs)"),
+];
+
+/// Column names no input or output may take.
+pub const RESERVED: [&str; 8] = [
+    "sample_id", "status", "error", "steps", "max_penetration", "max_solver_residual", "nonconverged_steps", "wall_ms",
+];
+
+/// Parquet key-value metadata keys.
+pub const META_HASH: &str = "mc_study.study_hash";
+pub const META_STUDY: &str = "mc_study.study_yaml";
+pub const META_SCENE: &str = "mc_study.scene_yaml";
+pub const META_VERSION: &str = "mc_study.version";
+pub const META_NAME: &str = "mc_study.study_name";
+
+fn field(name: &str, ty: DataType, nullable: bool, role: &str, unit: &str) -> Field {
+    let mut meta = HashMap::from([("role".to_string(), role.to_string())]);
+    if !unit.is_empty() {
+        meta.insert("unit".to_string(), unit.to_string());
+    }
+    Field::new(name, ty, nullable).with_metadata(meta)
+}
+
+impl Columns {
+    pub fn schema(&self, metadata: HashMap<String, String>) -> Schema {
+        let mut fields = vec![field("sample_id", DataType::UInt64, false, "id", "")];
+        for (n, u) in &self.inputs {
+            fields.push(field(n, DataType::Float64, false, "input", u));
+        }
+        for (n, u) in &self.outputs {
+            fields.push(field(n, DataType::Float64, true, "output", u));
+        }
+        for (n, u, _) in DIAGNOSTICS {
+            let ty = if matches!(n, "steps" | "nonconverged_steps") { DataType::UInt64 } else { DataType::Float64 };
+            fields.push(field(n, ty, false, "diagnostic", u));
+        }
+        fields.push(field("status", DataType::Utf8, false, "status", ""));
+        fields.push(field("error", DataType::Utf8, true, "status", ""));
+        Schema::new_with_metadata(fields, metadata)
+    }
+
+    fn batch(&self, rows: &[Row], schema: Arc<Schema>) -> Result<RecordBatch> {
+        let f64s = |f: &dyn Fn(&Row) -> f64| -> ArrayRef { Arc::new(Float64Array::from_iter_values(rows.iter().map(f))) };
+        let u64s = |f: &dyn Fn(&Row) -> u64| -> ArrayRef { Arc::new(UInt64Array::from_iter_values(rows.iter().map(f))) };
+        let mut cols: Vec<ArrayRef> = vec![u64s(&|r| r.id)];
+        for k in 0..self.inputs.len() {
+            cols.push(f64s(&|r| r.inputs[k]));
+        }
+        for k in 0..self.outputs.len() {
+            let v: Float64Array = rows.iter().map(|r| Some(r.outputs[k]).filter(|x| !x.is_nan())).collect();
+            cols.push(Arc::new(v));
+        }
+        cols.push(u64s(&|r| r.diagnostics.steps));
+        cols.push(f64s(&|r| r.diagnostics.max_penetration));
+        cols.push(f64s(&|r| r.diagnostics.max_solver_residual));
+        cols.push(u64s(&|r| r.diagnostics.nonconverged_steps));
+        cols.push(f64s(&|r| r.diagnostics.wall_ms));
+        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|r| if r.failed() { "failed" } else { "ok" }))));
+        cols.push(Arc::new(rows.iter().map(|r| r.error.as_deref()).collect::<StringArray>()));
+        Ok(RecordBatch::try_new(schema, cols)?)
+    }
+}
+
+/// Writes `rows` to `path` atomically (temporary name, fsync, rename, fsync of the directory).
+pub fn write(path: &Path, columns: &Columns, rows: &[Row], metadata: &HashMap<String, String>) -> Result<()> {
+    let dir = path.parent().context("a file path has a directory")?;
+    let name = path.file_name().context("a file name")?.to_string_lossy();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let schema = Arc::new(columns.schema(metadata.clone()));
+    let props = WriterProperties::builder()
+        .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
+        .build();
+    let file = File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    let mut writer = ArrowWriter::try_new(file, schema.clone(), Some(props))?;
+    // row groups of at most 64 Ki rows keep readers' memory bounded
+    for chunk in rows.chunks(65_536) {
+        writer.write(&columns.batch(chunk, schema.clone())?)?;
+    }
+    let file = writer.into_inner()?;
+    file.sync_all()?;
+    drop(file);
+    std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
+    File::open(dir)?.sync_all()?;
+    Ok(())
+}
+
+/// What a study file holds.
+pub struct Table {
+    pub columns: Columns,
+    pub rows: Vec<Row>,
+    pub metadata: HashMap<String, String>,
+}
+
+fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
+    batch
+        .column_by_name(name)
+        .and_then(|c| c.as_any().downcast_ref::<T>())
+        .with_context(|| format!("column `{name}` is missing or has the wrong type"))
+}
+
+/// Reads a study file written by [`write`].
+pub fn read(path: &Path) -> Result<Table> {
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file).with_context(|| format!("reading {}", path.display()))?;
+    let schema = builder.schema().clone();
+    let metadata: HashMap<String, String> = schema.metadata().iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    let role = |f: &Field| f.metadata().get("role").cloned().unwrap_or_default();
+    let unit = |f: &Field| f.metadata().get("unit").cloned().unwrap_or_default();
+    let pick = |r: &str| -> Vec<(String, String)> {
+        schema.fields().iter().filter(|f| role(f) == r).map(|f| (f.name().clone(), unit(f))).collect()
+    };
+    let columns = Columns { inputs: pick("input"), outputs: pick("output") };
+    let mut rows = Vec::new();
+    for batch in builder.build()? {
+        let batch = batch.with_context(|| format!("reading {}", path.display()))?;
+        let ids = column::<UInt64Array>(&batch, "sample_id")?;
+        let inputs: Vec<&Float64Array> = columns.inputs.iter().map(|(n, _)| column(&batch, n)).collect::<Result<_>>()?;
+        let outputs: Vec<&Float64Array> = columns.outputs.iter().map(|(n, _)| column(&batch, n)).collect::<Result<_>>()?;
+        let steps = column::<UInt64Array>(&batch, "steps")?;
+        let pen = column::<Float64Array>(&batch, "max_penetration")?;
+        let res = column::<Float64Array>(&batch, "max_solver_residual")?;
+        let nc = column::<UInt64Array>(&batch, "nonconverged_steps")?;
+        let wall = column::<Float64Array>(&batch, "wall_ms")?;
+        let status = column::<StringArray>(&batch, "status")?;
+        let error = column::<StringArray>(&batch, "error")?;
+        for i in 0..batch.num_rows() {
+            let failed = status.value(i) == "failed";
+            let err = (!error.is_null(i)).then(|| error.value(i).to_string());
+            if failed != err.is_some() {
+                bail!("{}: row {i} has status `{}` but error {:?}", path.display(), status.value(i), err);
+            }
+            rows.push(Row {
+                id: ids.value(i),
+                inputs: inputs.iter().map(|c| c.value(i)).collect(),
+                outputs: outputs.iter().map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }).collect(),
+                diagnostics: Diagnostics {
+                    steps: steps.value(i),
+                    max_penetration: pen.value(i),
+                    max_solver_residual: res.value(i),
+                    nonconverged_steps: nc.value(i),
+                    wall_ms: wall.value(i),
+                },
+                error: err,
+            });
+        }
+    }
+    Ok(Table { columns, rows, metadata })
+}

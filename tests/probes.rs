@@ -1,0 +1,117 @@
+//! Scene probes against closed forms on the ball: a distance at a time, a threshold
+//! crossing, contact close/open events, a mean contact force over a window; and their
+//! errors (an event that never happens, bad references).
+
+use mc_study::study::Subject;
+
+fn ball(e: f64, probes: &str) -> String {
+    format!(
+        r#"
+name: probe-ball
+duration: 2 s
+integrator: {{ h: 1 ms, scheme: moreau-jean }}
+bodies:
+  - name: ball
+    mass: 1 kg
+    shape: {{ sphere: {{ radius: 0.1 m }} }}
+    position: [0, 0, 1 m]
+contacts:
+  - name: floor
+    body: ball
+    shape: {{ sphere: {{ radius: 0.1 m }} }}
+    against_shape: {{ plane: {{ normal: [0, 0, 1] }} }}
+    e: {e}
+probes:
+{probes}"#
+    )
+}
+
+fn run(text: &str) -> Result<Vec<f64>, String> {
+    let s = Subject::from_yaml(text, "probe-ball.yaml").map_err(|e| e.to_string())?;
+    let n = s.outputs().len();
+    let o = s.run(&[], &(0..n).collect::<Vec<_>>());
+    match o.error {
+        Some(e) => Err(e),
+        None => Ok(o.outputs),
+    }
+}
+
+#[test]
+fn distance_at_a_time_and_a_threshold_crossing_in_free_fall() {
+    let probes = r#"
+  - name: height_at_200ms
+    measure: { distance: { from: { body: ground }, to: { body: ball }, axis: [0, 0, 1] } }
+    at: 200 ms
+  - name: height_at_200_5ms
+    measure: { distance: { from: { body: ground }, to: { body: ball }, axis: [0, 0, 1] } }
+    at: 200.5 ms
+  - name: half_metre
+    event: { crosses: 0.5 m, measure: { distance: { from: { body: ground }, to: { body: ball }, axis: [0, 0, 1] } }, direction: down }
+"#;
+    let v = run(&ball(0.0, probes)).unwrap();
+    // the θ = 1/2 position update is exact under constant gravity
+    let z = |t: f64| 1.0 - 0.5 * 9.81 * t * t;
+    assert!((v[0] - z(0.2)).abs() < 1e-12, "{} vs {}", v[0], z(0.2));
+    // between steps: linear interpolation, error g h²/8 at most
+    assert!((v[1] - z(0.2005)).abs() < 9.81 * 1e-6 / 8.0 + 1e-12, "{}", v[1]);
+    let t_half = (2.0 * 0.5 / 9.81f64).sqrt();
+    assert!((v[2] - t_half).abs() < 1e-6, "{} vs {t_half}", v[2]);
+}
+
+#[test]
+fn contact_events_and_mean_force_at_rest() {
+    let probes = r#"
+  - name: impact
+    event: { closes: floor }
+  - name: leaves
+    event: { opens: floor }
+  - name: second_impact
+    event: { closes: floor, occurrence: 2 }
+"#;
+    let v = run(&ball(0.9, probes)).unwrap();
+    let t1 = (2.0 * 0.9 / 9.81f64).sqrt();
+    assert!((v[0] - t1).abs() <= 1e-3, "{} vs {t1}", v[0]);
+    // the ball is in contact for exactly the impact step
+    assert!((v[1] - v[0] - 1e-3).abs() < 1e-12, "{} {}", v[0], v[1]);
+    let flight = 2.0 * 0.9 * (2.0 * 9.81 * 0.9f64).sqrt() / 9.81;
+    assert!((v[2] - v[0] - flight).abs() < 3e-3, "{}", v[2] - v[0]);
+
+    let rest = r#"
+  - name: weight
+    measure: { contact_force: floor }
+    reduce: mean
+    from: 1 s
+    to: 2 s
+  - name: lowest
+    measure: { gap: floor }
+    reduce: min
+"#;
+    let v = run(&ball(0.0, rest)).unwrap();
+    assert!((v[0] - 9.81).abs() < 1e-9, "{}", v[0]);
+    assert!(v[1].abs() < 1e-3, "{}", v[1]);
+}
+
+#[test]
+fn an_event_that_does_not_happen_fails_the_sample_with_a_reason() {
+    let probes = r#"
+  - name: tenth_impact
+    event: { closes: floor, occurrence: 10 }
+"#;
+    let e = run(&ball(0.5, probes)).unwrap_err();
+    assert!(e.contains("probe `tenth_impact`") && e.contains("occurrence 10"), "{e}");
+}
+
+#[test]
+fn bad_probe_references_name_the_field_and_line() {
+    let e = run(&ball(0.5, "  - name: p\n    event: { closes: flor }\n")).unwrap_err();
+    assert!(e.contains("`probes[0].event.closes`") && e.contains("unknown contact `flor`"), "{e}");
+    assert!(e.contains("probe-ball.yaml:18"), "{e}");
+    let e = run(&ball(
+        0.5,
+        "  - name: h\n    measure: { gap: floor }\n  - name: p\n    measure: { gap: floor }\n    reduce: max\n    from: h\n",
+    ))
+    .unwrap_err();
+    assert!(e.contains("`probes[1].from`") && e.contains("not an event probe"), "{e}");
+    let e = run(&ball(0.5, "  - name: p\n    measure: { gap: floor }\n    reduce: median\n")).unwrap_err();
+    assert!(e.contains("unknown reduction `median`"), "{e}");
+}
