@@ -239,7 +239,10 @@ impl Expr {
     /// Parses `text`; `inputs` are the names it may refer to.
     pub fn parse(text: &str, inputs: &[String]) -> Result<Expr, ExprError> {
         if !text.is_ascii() {
-            let offset = text.char_indices().find(|(_, c)| !c.is_ascii()).map_or(0, |(i, _)| i);
+            let offset = text
+                .char_indices()
+                .find(|(_, c)| !c.is_ascii())
+                .map_or(0, |(i, _)| i);
             return Err(ExprError {
                 offset,
                 message: "only ASCII characters are allowed".into(),
@@ -344,7 +347,10 @@ mod tests {
         assert_eq!(e.offset, 4);
         assert!(e.message.contains("unknown name `y`"), "{}", e.message);
         assert!(Expr::parse("sin x", &names).is_err());
-        assert!(Expr::parse("pow(x)", &names).unwrap_err().message.contains("2 argument"));
+        assert!(Expr::parse("pow(x)", &names)
+            .unwrap_err()
+            .message
+            .contains("2 argument"));
         assert!(Expr::parse("(x + 1", &names).is_err());
         assert!(Expr::parse("x 1", &names).is_err());
     }

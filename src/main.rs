@@ -187,7 +187,7 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     if args.threads == Some(0) {
         bail!("--threads must be ≥ 1");
     }
-    if args.part_rows == 0 || !(args.part_seconds > 0.0) {
+    if args.part_rows == 0 || args.part_seconds.is_nan() || args.part_seconds <= 0.0 {
         bail!("--part-rows and --part-seconds must be positive");
     }
     let out = args.out.unwrap_or_else(|| study.output_dir.clone());
@@ -234,9 +234,17 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     if r.missing.is_empty() && opts.shard.count == 1 {
         let m = merge(&out, false)?;
         print!("{}", m.summary.table());
-        eprintln!("results: {} ({} rows), {}", m.path.display(), m.rows, out.join("summary.json").display());
+        eprintln!(
+            "results: {} ({} rows), {}",
+            m.path.display(),
+            m.rows,
+            out.join("summary.json").display()
+        );
     } else if r.missing.is_empty() {
-        eprintln!("all samples of the study are done: run `mc-study merge {}`", out.display());
+        eprintln!(
+            "all samples of the study are done: run `mc-study merge {}`",
+            out.display()
+        );
     } else {
         eprintln!(
             "shard done; {} samples of the study remain in other shards (`mc-study status {}`)",
@@ -249,8 +257,16 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
 
 fn print_status(out: &Path, shards: Option<u64>) -> Result<()> {
     let (m, v) = status(out, shards)?;
-    println!("study {} ({} runs, hash {}…)", m.study_name, m.runs, &m.study_hash[..12]);
-    println!("{:<8} {:>9} {:>9} {:>9} {:>9}  state", "shard", "samples", "done", "failed", "missing");
+    println!(
+        "study {} ({} runs, hash {}…)",
+        m.study_name,
+        m.runs,
+        &m.study_hash[..12]
+    );
+    println!(
+        "{:<8} {:>9} {:>9} {:>9} {:>9}  state",
+        "shard", "samples", "done", "failed", "missing"
+    );
     let mut resubmit = Vec::new();
     for s in &v {
         let state = if s.done == s.samples {
@@ -323,7 +339,11 @@ fn main() -> std::process::ExitCode {
             print!("{}", m.summary.table());
             eprintln!("results: {} ({} rows)", m.path.display(), m.rows);
             if !m.missing.is_empty() {
-                eprintln!("partial: {} samples missing ({})", m.missing.count(), m.missing.describe(8));
+                eprintln!(
+                    "partial: {} samples missing ({})",
+                    m.missing.count(),
+                    m.missing.describe(8)
+                );
             }
         }),
         Command::Status { out, shards } => print_status(out, *shards),

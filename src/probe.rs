@@ -220,7 +220,9 @@ impl<'a> ProbeRecorder<'a> {
                         // linear interpolation between the steps around a given time; an
                         // event's time is a step end, where this gives the step's value
                         g.value = Some(match g.previous {
-                            Some((t0, v0)) if t > t0 && at > t0 => v0 + (v - v0) * (at - t0) / (t - t0),
+                            Some((t0, v0)) if t > t0 && at > t0 => {
+                                v0 + (v - v0) * (at - t0) / (t - t0)
+                            }
                             _ => v,
                         });
                     }
@@ -232,7 +234,9 @@ impl<'a> ProbeRecorder<'a> {
                 None => true,
                 Some(r) => self.time(*r).is_some_and(|t0| t >= t0 - half_step),
             };
-            let ended = to.and_then(|r| self.time(r)).is_some_and(|t1| t > t1 + half_step);
+            let ended = to
+                .and_then(|r| self.time(r))
+                .is_some_and(|t1| t > t1 + half_step);
             let g = &mut self.progress[i];
             if ended {
                 if g.count > 0 {
@@ -309,6 +313,10 @@ impl<'a> ProbeRecorder<'a> {
                 }
             }
         }
-        Ok(self.progress.iter().map(|g| g.value.unwrap_or(f64::NAN)).collect())
+        Ok(self
+            .progress
+            .iter()
+            .map(|g| g.value.unwrap_or(f64::NAN))
+            .collect())
     }
 }

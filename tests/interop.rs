@@ -52,7 +52,10 @@ fn results_open_in_pyarrow_and_duckdb_with_units_and_study_metadata() {
         .status()
         .is_ok_and(|s| s.success());
     if !available {
-        assert!(!required, "MC_STUDY_INTEROP=1 but python3 cannot import pyarrow and duckdb");
+        assert!(
+            !required,
+            "MC_STUDY_INTEROP=1 but python3 cannot import pyarrow and duckdb"
+        );
         eprintln!("SKIPPED: interop test needs python3 with pyarrow and duckdb (pip install pyarrow duckdb; .ci/run does it)");
         return;
     }
@@ -64,9 +67,16 @@ fn results_open_in_pyarrow_and_duckdb_with_units_and_study_metadata() {
     let m = merge(&out, false).unwrap();
     let script = out.join("check.py");
     std::fs::write(&script, CHECK).unwrap();
-    let result = Command::new("python3").arg(&script).arg(&m.path).output().unwrap();
+    let result = Command::new("python3")
+        .arg(&script)
+        .arg(&m.path)
+        .output()
+        .unwrap();
     let stdout = String::from_utf8_lossy(&result.stdout);
     let stderr = String::from_utf8_lossy(&result.stderr);
-    assert!(result.status.success(), "python check failed:\n{stdout}\n{stderr}");
+    assert!(
+        result.status.success(),
+        "python check failed:\n{stdout}\n{stderr}"
+    );
     assert!(stdout.contains("\"duckdb_count\": 20"), "{stdout}");
 }

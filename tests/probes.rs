@@ -53,7 +53,11 @@ fn distance_at_a_time_and_a_threshold_crossing_in_free_fall() {
     let z = |t: f64| 1.0 - 0.5 * 9.81 * t * t;
     assert!((v[0] - z(0.2)).abs() < 1e-12, "{} vs {}", v[0], z(0.2));
     // between steps: linear interpolation, error g h²/8 at most
-    assert!((v[1] - z(0.2005)).abs() < 9.81 * 1e-6 / 8.0 + 1e-12, "{}", v[1]);
+    assert!(
+        (v[1] - z(0.2005)).abs() < 9.81 * 1e-6 / 8.0 + 1e-12,
+        "{}",
+        v[1]
+    );
     let t_half = (2.0 * 0.5 / 9.81f64).sqrt();
     assert!((v[2] - t_half).abs() < 1e-6, "{} vs {t_half}", v[2]);
 }
@@ -98,20 +102,33 @@ fn an_event_that_does_not_happen_fails_the_sample_with_a_reason() {
     event: { closes: floor, occurrence: 10 }
 "#;
     let e = run(&ball(0.5, probes)).unwrap_err();
-    assert!(e.contains("probe `tenth_impact`") && e.contains("occurrence 10"), "{e}");
+    assert!(
+        e.contains("probe `tenth_impact`") && e.contains("occurrence 10"),
+        "{e}"
+    );
 }
 
 #[test]
 fn bad_probe_references_name_the_field_and_line() {
     let e = run(&ball(0.5, "  - name: p\n    event: { closes: flor }\n")).unwrap_err();
-    assert!(e.contains("`probes[0].event.closes`") && e.contains("unknown contact `flor`"), "{e}");
+    assert!(
+        e.contains("`probes[0].event.closes`") && e.contains("unknown contact `flor`"),
+        "{e}"
+    );
     assert!(e.contains("probe-ball.yaml:18"), "{e}");
     let e = run(&ball(
         0.5,
         "  - name: h\n    measure: { gap: floor }\n  - name: p\n    measure: { gap: floor }\n    reduce: max\n    from: h\n",
     ))
     .unwrap_err();
-    assert!(e.contains("`probes[1].from`") && e.contains("not an event probe"), "{e}");
-    let e = run(&ball(0.5, "  - name: p\n    measure: { gap: floor }\n    reduce: median\n")).unwrap_err();
+    assert!(
+        e.contains("`probes[1].from`") && e.contains("not an event probe"),
+        "{e}"
+    );
+    let e = run(&ball(
+        0.5,
+        "  - name: p\n    measure: { gap: floor }\n    reduce: median\n",
+    ))
+    .unwrap_err();
     assert!(e.contains("unknown reduction `median`"), "{e}");
 }

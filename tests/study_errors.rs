@@ -10,11 +10,15 @@ fn error_of(tag: &str, from: &str, to: &str) -> String {
     let text = std::fs::read_to_string(study_path("bouncing-ball", "study.yaml")).unwrap();
     assert!(text.contains(from), "the bundled study has no `{from}`");
     let scene = study_path("bouncing-ball", "scene.yaml");
-    let text = text.replace(from, to).replace("scene: scene.yaml", &format!("scene: {}", scene.display()));
+    let text = text
+        .replace(from, to)
+        .replace("scene: scene.yaml", &format!("scene: {}", scene.display()));
     let dir = scratch(&format!("study-error-{tag}"));
     let f = dir.join("study.yaml");
     std::fs::write(&f, &text).unwrap();
-    let e = Study::load(&f, None).err().unwrap_or_else(|| panic!("{tag}: accepted"));
+    let e = Study::load(&f, None)
+        .err()
+        .unwrap_or_else(|| panic!("{tag}: accepted"));
     e.to_string()
 }
 
@@ -24,23 +28,48 @@ fn line_of(needle: &str) -> u64 {
 }
 
 fn assert_names(e: &str, field: &str, line: u64, what: &str) {
-    assert!(e.contains(&format!("study.yaml:{line}:")), "no line {line} in: {e}");
-    assert!(e.contains(&format!("`{field}`")), "no field `{field}` in: {e}");
+    assert!(
+        e.contains(&format!("study.yaml:{line}:")),
+        "no line {line} in: {e}"
+    );
+    assert!(
+        e.contains(&format!("`{field}`")),
+        "no field `{field}` in: {e}"
+    );
     assert!(e.contains(what), "no `{what}` in: {e}");
 }
 
 #[test]
 fn unknown_parameter_path() {
     let e = error_of("path", "path: contacts.floor.e", "path: contacts.flor.e");
-    assert_names(&e, "parameters[0].path", line_of("contacts.floor.e"), "no such contact (contacts: floor)");
-    let e = error_of("field", "path: contacts.floor.e", "path: contacts.floor.colour");
-    assert_names(&e, "parameters[0].path", line_of("contacts.floor.e"), "unknown field (mu, e)");
+    assert_names(
+        &e,
+        "parameters[0].path",
+        line_of("contacts.floor.e"),
+        "no such contact (contacts: floor)",
+    );
+    let e = error_of(
+        "field",
+        "path: contacts.floor.e",
+        "path: contacts.floor.colour",
+    );
+    assert_names(
+        &e,
+        "parameters[0].path",
+        line_of("contacts.floor.e"),
+        "unknown field (mu, e)",
+    );
 }
 
 #[test]
 fn negative_sigma() {
     let e = error_of("sigma", "sd: 0.05 m", "sd: -0.05 m");
-    assert_names(&e, "parameters[1].distribution.normal", line_of("sd: 0.05 m"), "sd must be ≥ 0");
+    assert_names(
+        &e,
+        "parameters[1].distribution.normal",
+        line_of("sd: 0.05 m"),
+        "sd must be ≥ 0",
+    );
 }
 
 #[test]
@@ -50,29 +79,56 @@ fn truncated_distribution_without_mass() {
         "normal: { mean: 1 m, sd: 0.05 m }",
         "truncated_normal: { mean: 1 m, sd: 0.05 m, lower: 4 m, upper: 5 m }",
     );
-    assert_names(&e, "parameters[1].distribution.truncated_normal", line_of("sd: 0.05 m"), "no mass");
+    assert_names(
+        &e,
+        "parameters[1].distribution.truncated_normal",
+        line_of("sd: 0.05 m"),
+        "no mass",
+    );
 }
 
 #[test]
 fn zero_samples() {
     let e = error_of("n0", "samples: 256", "samples: 0");
-    assert_names(&e, "samples", line_of("samples: 256"), "must be a whole number ≥ 1, got 0");
+    assert_names(
+        &e,
+        "samples",
+        line_of("samples: 256"),
+        "must be a whole number ≥ 1, got 0",
+    );
 }
 
 #[test]
 fn unknown_output() {
-    let e = error_of("output", "outputs: [first_impact_time, apex_after_first_bounce]", "outputs: [first_impact_time, apex]");
+    let e = error_of(
+        "output",
+        "outputs: [first_impact_time, apex_after_first_bounce]",
+        "outputs: [first_impact_time, apex]",
+    );
     assert_names(&e, "outputs[1]", line_of("outputs: ["), "unknown output `apex` (the scene's outputs: first_impact_time, second_impact_time, apex_after_first_bounce)");
 }
 
 #[test]
 fn wrong_units_unknown_design_and_unknown_keys() {
     let e = error_of("unit", "sd: 0.05 m", "sd: 0.05 s");
-    assert_names(&e, "parameters[1].distribution.normal.sd", line_of("sd: 0.05 m"), "a length");
+    assert_names(
+        &e,
+        "parameters[1].distribution.normal.sd",
+        line_of("sd: 0.05 m"),
+        "a length",
+    );
     let e = error_of("design", "design: lhs", "design: halton");
-    assert_names(&e, "design", line_of("design: lhs"), "unknown design `halton` (random, lhs, sobol, saltelli)");
+    assert_names(
+        &e,
+        "design",
+        line_of("design: lhs"),
+        "unknown design `halton` (random, lhs, sobol, saltelli)",
+    );
     let e = error_of("key", "seed: 2026", "sed: 2026");
-    assert!(e.contains(&format!(":{}", line_of("seed: 2026"))) && e.contains("sed"), "{e}");
+    assert!(
+        e.contains(&format!(":{}", line_of("seed: 2026"))) && e.contains("sed"),
+        "{e}"
+    );
     let e = error_of("limit", "lower: 0.6 m", "lower: 0.6 N");
     assert_names(&e, "limits[0].lower", line_of("lower: 0.6 m"), "a length");
     let e = error_of("scene", "scene: scene.yaml", "scene: nowhere.yaml");

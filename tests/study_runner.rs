@@ -13,7 +13,8 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 fn bouncing_ball(n: u64) -> Study {
-    Study::load(&study_path("bouncing-ball", "study.yaml"), Some(n)).unwrap_or_else(|e| panic!("{e}"))
+    Study::load(&study_path("bouncing-ball", "study.yaml"), Some(n))
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn options(out: &Path, threads: usize, shard: Shard) -> RunOptions {
@@ -61,11 +62,20 @@ fn results_are_identical_whatever_the_threads_and_shards() {
     let (b, meta_b) = results(&two);
     let (c, meta_c) = results(&sharded);
     assert_eq!(a.len(), 40);
-    assert!(a.iter().enumerate().all(|(i, r)| r.id == i as u64 && !r.failed()));
+    assert!(a
+        .iter()
+        .enumerate()
+        .all(|(i, r)| r.id == i as u64 && !r.failed()));
     // bit-identical: compare the f64 bit patterns, not approximate values
     let bits = |rows: &[Row]| -> Vec<Vec<u64>> {
         rows.iter()
-            .map(|r| r.inputs.iter().chain(&r.outputs).map(|x| x.to_bits()).collect())
+            .map(|r| {
+                r.inputs
+                    .iter()
+                    .chain(&r.outputs)
+                    .map(|x| x.to_bits())
+                    .collect()
+            })
             .collect()
     };
     assert_eq!(bits(&a), bits(&b));
@@ -109,14 +119,23 @@ fn another_studys_directory_is_refused_and_left_untouched() {
     let out = scratch("refuse-other-study");
     run(&bouncing_ball(6), &options(&out, 2, Shard::WHOLE)).unwrap();
     let listing = |d: &Path| -> Vec<(PathBuf, Vec<u8>)> {
-        let mut v: Vec<(PathBuf, Vec<u8>)> = walk(d).into_iter().map(|p| (p.clone(), std::fs::read(&p).unwrap())).collect();
+        let mut v: Vec<(PathBuf, Vec<u8>)> = walk(d)
+            .into_iter()
+            .map(|p| (p.clone(), std::fs::read(&p).unwrap()))
+            .collect();
         v.sort();
         v
     };
     let before = listing(&out);
     // same study, other sample count: another hash
-    let err = run(&bouncing_ball(7), &options(&out, 2, Shard::WHOLE)).err().unwrap().to_string();
-    assert!(err.contains("different study") && err.contains("Nothing was overwritten"), "{err}");
+    let err = run(&bouncing_ball(7), &options(&out, 2, Shard::WHOLE))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        err.contains("different study") && err.contains("Nothing was overwritten"),
+        "{err}"
+    );
     assert_eq!(before, listing(&out));
 }
 
@@ -155,7 +174,10 @@ fn failed_samples_become_rows_with_their_reason_and_the_batch_goes_on() {
     let m = merge(&out, false).unwrap();
     assert_eq!(m.rows, 200);
     assert_eq!(m.summary.failed, r.failed);
-    assert_eq!(m.summary.failures, vec![("output `root` is NaN".to_string(), r.failed)]);
+    assert_eq!(
+        m.summary.failures,
+        vec![("output `root` is NaN".to_string(), r.failed)]
+    );
     let t = store::read(&m.path).unwrap();
     for row in &t.rows {
         assert_eq!(row.failed(), row.inputs[0] < 0.0, "row {}", row.id);
@@ -193,9 +215,16 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
     let mut state: u64 = 0x2545_f491_4f6c_dd1d;
     let mut kills = 0;
     for _ in 0..6 {
-        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
         let delay = 100 + (state >> 33) % 500;
-        let mut child = Command::new(exe).args(args(&out)).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+        let mut child = Command::new(exe)
+            .args(args(&out))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
         std::thread::sleep(Duration::from_millis(delay));
         if child.try_wait().unwrap().is_none() {
             child.kill().unwrap(); // SIGKILL
@@ -204,9 +233,17 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
         child.wait().unwrap();
     }
     assert!(kills >= 3, "only {kills} runs were still going when killed");
-    let status = Command::new(exe).args(args(&out)).stdout(Stdio::null()).status().unwrap();
+    let status = Command::new(exe)
+        .args(args(&out))
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
     assert!(status.success());
-    let status = Command::new(exe).args(args(&reference)).stdout(Stdio::null()).status().unwrap();
+    let status = Command::new(exe)
+        .args(args(&reference))
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
     assert!(status.success());
     // every sample is in exactly one part
     let mut ids: Vec<u64> = Vec::new();
@@ -214,6 +251,58 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
         ids.extend(store::read(&p).unwrap().rows.iter().map(|r| r.id));
     }
     ids.sort_unstable();
-    assert_eq!(ids, (0..n).collect::<Vec<_>>(), "a sample lost or written twice");
+    assert_eq!(
+        ids,
+        (0..n).collect::<Vec<_>>(),
+        "a sample lost or written twice"
+    );
     assert_eq!(results(&out), results(&reference));
+}
+
+/// Ctrl-C (SIGINT) stops starting samples, writes those done and exits with 130; the rerun
+/// resumes from there.
+#[test]
+fn interrupt_writes_the_samples_done_and_exits_cleanly() {
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let study = study_path("bouncing-ball", "study.yaml");
+    let out = scratch("sigint");
+    let args = [
+        "run",
+        study.to_str().unwrap(),
+        "--samples",
+        "2000",
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "2",
+    ];
+    let child = Command::new(exe)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(700));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let result = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(result.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("interrupted: rerun the same command to resume"),
+        "{stderr}"
+    );
+    let saved: usize = walk(&out.join("parts"))
+        .iter()
+        .map(|p| store::read(p).unwrap().rows.len())
+        .sum();
+    assert!(saved > 0 && saved < 2000, "{saved} samples saved");
+    // the manifest records exactly the saved samples, so the same command resumes after them
+    let study = Study::load(&study_path("bouncing-ball", "study.yaml"), Some(2000)).unwrap();
+    let manifest = mc_study::study::manifest::Manifest::load(&out).unwrap();
+    assert_eq!(manifest.completed.count(), saved as u64);
+    assert_eq!(manifest.study_hash, study.hash());
 }

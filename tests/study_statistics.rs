@@ -13,7 +13,11 @@ use statrs::distribution::{Continuous, ContinuousCDF, Normal};
 use std::path::Path;
 
 fn data(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name).display().to_string()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+        .display()
+        .to_string()
 }
 
 fn study(dir: &Path, text: &str) -> Study {
@@ -47,28 +51,58 @@ fn moments_and_quantiles_match_closed_forms_within_monte_carlo_error() {
     let y = &m.summary.outputs[0];
     assert_eq!(y.count, n);
     let (mu, sigma) = (7.0, 1.5);
-    assert!((y.mean - mu).abs() < 4.0 * sigma / nf.sqrt(), "mean {}", y.mean);
+    assert!(
+        (y.mean - mu).abs() < 4.0 * sigma / nf.sqrt(),
+        "mean {}",
+        y.mean
+    );
     assert!(y.mean_ci95.0 < y.mean && y.mean < y.mean_ci95.1);
-    assert!((y.sd - sigma).abs() < 4.0 * sigma / (2.0 * nf).sqrt(), "sd {}", y.sd);
+    assert!(
+        (y.sd - sigma).abs() < 4.0 * sigma / (2.0 * nf).sqrt(),
+        "sd {}",
+        y.sd
+    );
     let normal = Normal::new(mu, sigma).unwrap();
     for &(p, q) in &y.quantiles {
         let exact = normal.inverse_cdf(p);
         // standard error of the p-quantile: sqrt(p(1 − p)/n) / f(q_p)
         let se = (p * (1.0 - p) / nf).sqrt() / normal.pdf(exact);
-        assert!((q - exact).abs() < 4.0 * se, "p {p}: {q} vs {exact} (se {se})");
+        assert!(
+            (q - exact).abs() < 4.0 * se,
+            "p {p}: {q} vs {exact} (se {se})"
+        );
     }
     // P(y > 9.25) = P(z > 1.5) = 0.0668; the Wilson interval covers it
     let os = y.out_of_spec.as_ref().unwrap();
     let exact = 1.0 - Normal::standard().cdf(1.5);
-    assert!(os.wilson95.0 < exact && exact < os.wilson95.1, "{:?} vs {exact}", os.wilson95);
+    assert!(
+        os.wilson95.0 < exact && exact < os.wilson95.1,
+        "{:?} vs {exact}",
+        os.wilson95
+    );
     assert!((y.cpk.unwrap() - 2.25 / 4.5).abs() < 0.05);
     // s: mean 2 + 0.5 + 5/3, variance 0.25 + 9/12 + (0 + 1 + 16 − 0 − 0 − 4)/18
     let sm = &m.summary.outputs[1];
     let (mean_s, var_s) = (2.0 + 0.5 + 5.0 / 3.0, 0.25 + 0.75 + 13.0 / 18.0);
-    assert!((sm.mean - mean_s).abs() < 4.0 * (var_s / nf).sqrt(), "mean {}", sm.mean);
-    assert!((sm.sd - var_s.sqrt()).abs() < 0.05 * var_s.sqrt(), "sd {}", sm.sd);
+    assert!(
+        (sm.mean - mean_s).abs() < 4.0 * (var_s / nf).sqrt(),
+        "mean {}",
+        sm.mean
+    );
+    assert!(
+        (sm.sd - var_s.sqrt()).abs() < 0.05 * var_s.sqrt(),
+        "sd {}",
+        sm.sd
+    );
     // correlation of y with x1 is 1, with x2 ~ 0
-    let c = |i: &str, o: &str| m.summary.correlations.iter().find(|c| c.input == i && c.output == o).unwrap().pearson;
+    let c = |i: &str, o: &str| {
+        m.summary
+            .correlations
+            .iter()
+            .find(|c| c.input == i && c.output == o)
+            .unwrap()
+            .pearson
+    };
     assert!((c("inputs.x1", "y") - 1.0).abs() < 1e-12);
     assert!(c("inputs.x2", "y").abs() < 0.06);
 }
@@ -78,14 +112,41 @@ fn moments_and_quantiles_match_closed_forms_within_monte_carlo_error() {
 fn every_distribution_samples_its_exact_mean() {
     let dir = scratch("stats-distributions");
     let cases = [
-        ("normal: { mean: 1.5, sd: 0.25 }", Distribution::Normal { mean: 1.5, sd: 0.25 }),
+        (
+            "normal: { mean: 1.5, sd: 0.25 }",
+            Distribution::Normal {
+                mean: 1.5,
+                sd: 0.25,
+            },
+        ),
         (
             "truncated_normal: { mean: 0.07, sd: 0.0175, lower: 0.05 }",
-            Distribution::TruncatedNormal { mean: 0.07, sd: 0.0175, lower: 0.05, upper: f64::INFINITY },
+            Distribution::TruncatedNormal {
+                mean: 0.07,
+                sd: 0.0175,
+                lower: 0.05,
+                upper: f64::INFINITY,
+            },
         ),
-        ("uniform: { lower: -2, upper: 5 }", Distribution::Uniform { lower: -2.0, upper: 5.0 }),
-        ("lognormal: { mean: 3, sd: 1.2 }", Distribution::lognormal(3.0, 1.2).unwrap()),
-        ("triangular: { lower: 1, mode: 4, upper: 5 }", Distribution::Triangular { lower: 1.0, mode: 4.0, upper: 5.0 }),
+        (
+            "uniform: { lower: -2, upper: 5 }",
+            Distribution::Uniform {
+                lower: -2.0,
+                upper: 5.0,
+            },
+        ),
+        (
+            "lognormal: { mean: 3, sd: 1.2 }",
+            Distribution::lognormal(3.0, 1.2).unwrap(),
+        ),
+        (
+            "triangular: { lower: 1, mode: 4, upper: 5 }",
+            Distribution::Triangular {
+                lower: 1.0,
+                mode: 4.0,
+                upper: 5.0,
+            },
+        ),
         ("fixed: 0.7", Distribution::Fixed(0.7)),
     ];
     for (k, (spec, dist)) in cases.iter().enumerate() {
@@ -101,7 +162,10 @@ fn every_distribution_samples_its_exact_mean() {
         let xs: Vec<f64> = (0..3000).map(|i| s.inputs(i)[0]).collect();
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         let (m, sd) = dist.moments();
-        assert!((mean - m).abs() <= 4.0 * sd / 3000f64.sqrt() + 1e-12 * m.abs(), "{spec}: sample mean {mean}, exact {m}");
+        assert!(
+            (mean - m).abs() <= 4.0 * sd / 3000f64.sqrt() + 1e-12 * m.abs(),
+            "{spec}: sample mean {mean}, exact {m}"
+        );
         if let Distribution::TruncatedNormal { lower, .. } = dist {
             assert!(xs.iter().all(|x| x >= lower));
         }
@@ -131,7 +195,9 @@ fn lhs_and_sobol_beat_random_sampling_at_equal_n() {
         rms.push((sq / 16.0).sqrt());
     }
     let (random, lhs, sobol) = (rms[0], rms[1], rms[2]);
-    println!("RMS error of the mean at N = 256: random {random:.2e}, lhs {lhs:.2e}, sobol {sobol:.2e}");
+    println!(
+        "RMS error of the mean at N = 256: random {random:.2e}, lhs {lhs:.2e}, sobol {sobol:.2e}"
+    );
     // random: σ/√N ≈ 0.42/16 = 2.6e-2
     assert!(random > 0.01 && random < 0.05, "random {random}");
     // LHS removes the additive part of the variance; the u·v term remains
@@ -152,9 +218,19 @@ fn bouncing_ball_study_matches_its_closed_forms_per_sample() {
         let g0 = z0 - 0.1;
         let t1 = (2.0 * g0 / 9.81).sqrt();
         // event-capturing: the impact is seen at the end of the step that closes the contact
-        assert!((r.outputs[0] - t1).abs() <= 1.5e-4, "sample {}: {} vs {t1}", r.id, r.outputs[0]);
+        assert!(
+            (r.outputs[0] - t1).abs() <= 1.5e-4,
+            "sample {}: {} vs {t1}",
+            r.id,
+            r.outputs[0]
+        );
         // apex: first order in h (the impact lasts a step): 1e-3 relative at h = 0.1 ms
         let apex = e * e * g0;
-        assert!((r.outputs[1] - apex).abs() < 1e-3 * apex, "sample {}: {} vs {apex}", r.id, r.outputs[1]);
+        assert!(
+            (r.outputs[1] - apex).abs() < 1e-3 * apex,
+            "sample {}: {} vs {apex}",
+            r.id,
+            r.outputs[1]
+        );
     }
 }

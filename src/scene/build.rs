@@ -835,7 +835,7 @@ pub fn apply_integrator(
         p.scheme = Scheme::parse(&s.value).ok_or_else(|| {
             SceneError::at(
                 line(s),
-                &format!("{prefix}.scheme"),
+                format!("{prefix}.scheme"),
                 format!("unknown scheme `{}` (available: moreau-jean, combined-projection, direct-projection)", s.value),
             )
         })?;
@@ -853,7 +853,8 @@ pub fn apply_integrator(
     }
     if let Some(s) = &spec.projection {
         if let Some(t) = &s.tolerance {
-            p.projection_tolerance = positive(t, Dim::NONE, &format!("{prefix}.projection.tolerance"))?;
+            p.projection_tolerance =
+                positive(t, Dim::NONE, &format!("{prefix}.projection.tolerance"))?;
         }
         if let Some(m) = &s.max_iterations {
             p.projection_max_iterations = count(m, &format!("{prefix}.projection.max_iterations"))?;

@@ -68,13 +68,22 @@ impl FunctionScene {
     fn build(spec: FunctionSpec) -> Result<FunctionScene, SceneError> {
         let mut inputs: Vec<String> = Vec::new();
         for (i, n) in spec.inputs.iter().enumerate() {
-            let valid = n.value.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-                && n.value.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            let valid = n
+                .value
+                .chars()
+                .next()
+                .is_some_and(|c| c.is_ascii_alphabetic())
+                && n.value
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_');
             if !valid || n.value == "pi" {
                 return Err(SceneError::at(
                     line(n),
                     format!("inputs[{i}]"),
-                    format!("`{}` is not a valid input name (letters, digits, `_`; not `pi`)", n.value),
+                    format!(
+                        "`{}` is not a valid input name (letters, digits, `_`; not `pi`)",
+                        n.value
+                    ),
                 ));
             }
             if inputs.contains(&n.value) {
@@ -87,7 +96,11 @@ impl FunctionScene {
             inputs.push(n.value.clone());
         }
         if spec.outputs.is_empty() {
-            return Err(SceneError::at(None, "outputs", "a function scene needs at least one output"));
+            return Err(SceneError::at(
+                None,
+                "outputs",
+                "a function scene needs at least one output",
+            ));
         }
         let mut outputs: Vec<FunctionOutput> = Vec::new();
         for (i, o) in spec.outputs.iter().enumerate() {
@@ -99,7 +112,11 @@ impl FunctionScene {
                 ));
             }
             let expression = Expr::parse(&o.expression.value, &inputs).map_err(|e| {
-                SceneError::at(line(&o.expression), format!("outputs[{i}].expression"), e.to_string())
+                SceneError::at(
+                    line(&o.expression),
+                    format!("outputs[{i}].expression"),
+                    e.to_string(),
+                )
             })?;
             outputs.push(FunctionOutput {
                 name: o.name.value.clone(),
@@ -137,6 +154,9 @@ impl FunctionScene {
 
     /// Every output at the current input values.
     pub fn evaluate(&self) -> Vec<f64> {
-        self.outputs.iter().map(|o| o.expression.eval(&self.values)).collect()
+        self.outputs
+            .iter()
+            .map(|o| o.expression.eval(&self.values))
+            .collect()
     }
 }

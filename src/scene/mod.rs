@@ -10,9 +10,9 @@ mod probes;
 pub mod schema;
 pub mod units;
 
+pub use build::apply_integrator;
 pub use error::SceneError;
 pub use function::FunctionScene;
-pub use build::apply_integrator;
 pub use schema::{IntegratorSpec, SceneSpec};
 
 use crate::integrator::IntegrationParameters;

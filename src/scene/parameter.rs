@@ -58,7 +58,10 @@ impl Scene {
                     } else {
                         let known: Vec<&str> =
                             m.clearance_joints.iter().map(|j| j.name.as_str()).collect();
-                        bad(&format!("no such joint (clearance joints: {})", known.join(", ")))
+                        bad(&format!(
+                            "no such joint (clearance joints: {})",
+                            known.join(", ")
+                        ))
                     };
                 };
                 match *field {

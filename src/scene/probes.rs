@@ -47,7 +47,11 @@ fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> {
 
 fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, Dim)> {
     let s = &m.value;
-    let given = [s.gap.is_some(), s.contact_force.is_some(), s.distance.is_some()];
+    let given = [
+        s.gap.is_some(),
+        s.contact_force.is_some(),
+        s.distance.is_some(),
+    ];
     if given.iter().filter(|&&g| g).count() != 1 {
         return Err(SceneError::at(
             line(m),
@@ -56,7 +60,10 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
         ));
     }
     if let Some(n) = &s.gap {
-        return Ok((Measure::Gap(contact(model, n, &format!("{field}.gap"))?), Dim::LENGTH));
+        return Ok((
+            Measure::Gap(contact(model, n, &format!("{field}.gap"))?),
+            Dim::LENGTH,
+        ));
     }
     if let Some(n) = &s.contact_force {
         let ids = contact(model, n, &format!("{field}.contact_force"))?;
@@ -89,7 +96,10 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
 fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)> {
     let s = &e.value;
     let f = |s: &str| format!("{field}.{s}");
-    let occurrence = s.occurrence.as_ref().map_or(Ok(1), |q| count(q, &f("occurrence")))?;
+    let occurrence = s
+        .occurrence
+        .as_ref()
+        .map_or(Ok(1), |q| count(q, &f("occurrence")))?;
     let kinds = [s.closes.is_some(), s.opens.is_some(), s.crosses.is_some()];
     if kinds.iter().filter(|&&k| k).count() != 1 {
         return Err(SceneError::at(
@@ -105,10 +115,18 @@ fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)
         return Ok((Event::Opens(contact(model, n, &f("opens"))?), occurrence));
     }
     let Some(m) = &s.measure else {
-        return Err(SceneError::at(line(e), f("measure"), "`crosses` needs the `measure` that crosses"));
+        return Err(SceneError::at(
+            line(e),
+            f("measure"),
+            "`crosses` needs the `measure` that crosses",
+        ));
     };
     let (measure, dim) = measure(model, m, &f("measure"))?;
-    let threshold = scalar(s.crosses.as_ref().expect("checked above"), dim, &f("crosses"))?;
+    let threshold = scalar(
+        s.crosses.as_ref().expect("checked above"),
+        dim,
+        &f("crosses"),
+    )?;
     let direction = match s.direction.as_ref().map(|d| (d.value.as_str(), d)) {
         None | Some(("either", _)) => Direction::Either,
         Some(("up", _)) => Direction::Up,
@@ -134,9 +152,15 @@ fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)
 fn time_ref(specs: &[ProbeSpec], t: &Spanned<TimeSpec>, field: &str) -> R<TimeRef> {
     match &t.value {
         TimeSpec::Time(q) => {
-            let v = q.value(Dim::TIME).map_err(|m| SceneError::at(line(t), field, m))?;
+            let v = q
+                .value(Dim::TIME)
+                .map_err(|m| SceneError::at(line(t), field, m))?;
             if !(v >= 0.0 && v.is_finite()) {
-                return Err(SceneError::at(line(t), field, format!("must be a time ≥ 0, got {v}")));
+                return Err(SceneError::at(
+                    line(t),
+                    field,
+                    format!("must be a time ≥ 0, got {v}"),
+                ));
             }
             Ok(TimeRef::Time(v))
         }
@@ -152,7 +176,9 @@ fn time_ref(specs: &[ProbeSpec], t: &Spanned<TimeSpec>, field: &str) -> R<TimeRe
                 return Err(SceneError::at(
                     line(t),
                     field,
-                    format!("probe `{name}` is not an event probe; only event times can bound a window"),
+                    format!(
+                        "probe `{name}` is not an event probe; only event times can bound a window"
+                    ),
                 ));
             }
             Ok(TimeRef::Probe(k))
@@ -211,7 +237,11 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
                     ));
                 }
                 if reduce != Reduce::At && at.is_some() {
-                    return Err(SceneError::at(line(&p.name), f("at"), "`at` goes with `reduce: at`"));
+                    return Err(SceneError::at(
+                        line(&p.name),
+                        f("at"),
+                        "`at` goes with `reduce: at`",
+                    ));
                 }
                 (
                     ProbeKind::Value {

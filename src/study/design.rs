@@ -118,10 +118,21 @@ impl Design {
                 ScrambledSobol::new(sobol_dim, Some(seeds))
             })
             .transpose()
-            .map_err(|e| format!("{e}{}", if kind == DesignKind::Saltelli { " (Saltelli uses 2d)" } else { "" }))?;
+            .map_err(|e| {
+                format!(
+                    "{e}{}",
+                    if kind == DesignKind::Saltelli {
+                        " (Saltelli uses 2d)"
+                    } else {
+                        ""
+                    }
+                )
+            })?;
         let permutations = if kind == DesignKind::Lhs {
             (0..dimension)
-                .map(|j| Permutation::new(base, splitmix64(seed ^ splitmix64(0x1a5_0000 + j as u64))))
+                .map(|j| {
+                    Permutation::new(base, splitmix64(seed ^ splitmix64(0x1a5_0000 + j as u64)))
+                })
                 .collect()
         } else {
             Vec::new()
@@ -225,7 +236,12 @@ mod tests {
 
     #[test]
     fn points_depend_only_on_seed_and_index() {
-        for kind in [DesignKind::Random, DesignKind::Lhs, DesignKind::Sobol, DesignKind::Saltelli] {
+        for kind in [
+            DesignKind::Random,
+            DesignKind::Lhs,
+            DesignKind::Sobol,
+            DesignKind::Saltelli,
+        ] {
             let a = Design::new(kind, 4, 64, 11).unwrap();
             let b = Design::new(kind, 4, 64, 11).unwrap();
             let c = Design::new(kind, 4, 64, 12).unwrap();

@@ -6,13 +6,31 @@ use statrs::distribution::{ContinuousCDF, Normal};
 /// A distribution in SI units.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Distribution {
-    Normal { mean: f64, sd: f64 },
+    Normal {
+        mean: f64,
+        sd: f64,
+    },
     /// Normal(mean, sd) restricted to [lower, upper] (either may be infinite).
-    TruncatedNormal { mean: f64, sd: f64, lower: f64, upper: f64 },
-    Uniform { lower: f64, upper: f64 },
+    TruncatedNormal {
+        mean: f64,
+        sd: f64,
+        lower: f64,
+        upper: f64,
+    },
+    Uniform {
+        lower: f64,
+        upper: f64,
+    },
     /// ln X ~ Normal(mu, sigma); built from the mean and sd of X itself.
-    Lognormal { mu: f64, sigma: f64 },
-    Triangular { lower: f64, mode: f64, upper: f64 },
+    Lognormal {
+        mu: f64,
+        sigma: f64,
+    },
+    Triangular {
+        lower: f64,
+        mode: f64,
+        upper: f64,
+    },
     Fixed(f64),
 }
 
@@ -46,11 +64,16 @@ impl Distribution {
     pub fn validate(&self) -> Result<(), String> {
         match *self {
             Distribution::Normal { sd, .. } if sd < 0.0 => Err(format!("sd must be ≥ 0, got {sd}")),
-            Distribution::TruncatedNormal { mean, sd, lower, upper } => {
+            Distribution::TruncatedNormal {
+                mean,
+                sd,
+                lower,
+                upper,
+            } => {
                 if sd < 0.0 {
                     return Err(format!("sd must be ≥ 0, got {sd}"));
                 }
-                if !(lower < upper) {
+                if lower >= upper || lower.is_nan() || upper.is_nan() {
                     return Err(format!("needs lower < upper, got [{lower}, {upper}]"));
                 }
                 if sd == 0.0 {
@@ -72,13 +95,15 @@ impl Distribution {
                     ))
                 }
             }
-            Distribution::Uniform { lower, upper } if !(lower <= upper) => {
+            Distribution::Uniform { lower, upper } if lower > upper => {
                 Err(format!("needs lower ≤ upper, got [{lower}, {upper}]"))
             }
             Distribution::Triangular { lower, mode, upper }
                 if !(lower <= mode && mode <= upper && lower < upper) =>
             {
-                Err(format!("needs lower ≤ mode ≤ upper and lower < upper, got {lower}, {mode}, {upper}"))
+                Err(format!(
+                    "needs lower ≤ mode ≤ upper and lower < upper, got {lower}, {mode}, {upper}"
+                ))
             }
             _ => Ok(()),
         }
@@ -88,7 +113,12 @@ impl Distribution {
     pub fn quantile(&self, u: f64) -> f64 {
         match *self {
             Distribution::Normal { mean, sd } => mean + sd * probit(u),
-            Distribution::TruncatedNormal { mean, sd, lower, upper } => {
+            Distribution::TruncatedNormal {
+                mean,
+                sd,
+                lower,
+                upper,
+            } => {
                 if sd == 0.0 {
                     return mean;
                 }
@@ -118,7 +148,12 @@ impl Distribution {
     pub fn moments(&self) -> (f64, f64) {
         match *self {
             Distribution::Normal { mean, sd } => (mean, sd),
-            Distribution::TruncatedNormal { mean, sd, lower, upper } => {
+            Distribution::TruncatedNormal {
+                mean,
+                sd,
+                lower,
+                upper,
+            } => {
                 if sd == 0.0 {
                     return (mean, 0.0);
                 }
@@ -143,7 +178,11 @@ impl Distribution {
                 let m = (mu + 0.5 * sigma * sigma).exp();
                 (m, m * ((sigma * sigma).exp() - 1.0).sqrt())
             }
-            Distribution::Triangular { lower: a, mode: c, upper: b } => (
+            Distribution::Triangular {
+                lower: a,
+                mode: c,
+                upper: b,
+            } => (
                 (a + b + c) / 3.0,
                 ((a * a + b * b + c * c - a * b - a * c - b * c) / 18.0).sqrt(),
             ),
@@ -175,28 +214,49 @@ mod tests {
 
     #[test]
     fn truncated_normal_stays_inside_and_far_tails_keep_mass() {
-        let d = Distribution::TruncatedNormal { mean: 0.07, sd: 0.0175, lower: 0.0, upper: f64::INFINITY };
+        let d = Distribution::TruncatedNormal {
+            mean: 0.07,
+            sd: 0.0175,
+            lower: 0.0,
+            upper: f64::INFINITY,
+        };
         d.validate().unwrap();
         assert!(d.quantile(1e-12) >= 0.0);
         // median of N(0,1) truncated to [8, ∞) (mirrored branch): 8 + ln 2/8 to first order
-        let t = Distribution::TruncatedNormal { mean: 0.0, sd: 1.0, lower: 8.0, upper: f64::INFINITY };
+        let t = Distribution::TruncatedNormal {
+            mean: 0.0,
+            sd: 1.0,
+            lower: 8.0,
+            upper: f64::INFINITY,
+        };
         t.validate().unwrap();
         let m = t.quantile(0.5);
         assert!(m > 8.0 && (m - 8.0 - 2f64.ln() / 8.0).abs() < 0.01, "{m}");
-        let none = Distribution::TruncatedNormal { mean: 0.0, sd: 1.0, lower: 40.0, upper: 41.0 };
+        let none = Distribution::TruncatedNormal {
+            mean: 0.0,
+            sd: 1.0,
+            lower: 40.0,
+            upper: 41.0,
+        };
         assert!(none.validate().unwrap_err().contains("no mass"));
     }
 
     #[test]
     fn triangular_and_lognormal_invert_their_cdfs() {
-        let t = Distribution::Triangular { lower: 0.0, mode: 1.0, upper: 3.0 };
+        let t = Distribution::Triangular {
+            lower: 0.0,
+            mode: 1.0,
+            upper: 3.0,
+        };
         // CDF at the mode is (c − a)/(b − a) = 1/3
         assert!((t.quantile(1.0 / 3.0) - 1.0).abs() < 1e-12);
         let l = Distribution::lognormal(2.0, 0.5).unwrap();
         let (m, s) = l.moments();
         assert!((m - 2.0).abs() < 1e-12 && (s - 0.5).abs() < 1e-12);
         // median of a lognormal is exp(mu)
-        let Distribution::Lognormal { mu, .. } = l else { unreachable!() };
+        let Distribution::Lognormal { mu, .. } = l else {
+            unreachable!()
+        };
         assert!((l.quantile(0.5) - mu.exp()).abs() < 1e-12);
     }
 }

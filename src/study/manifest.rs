@@ -77,7 +77,13 @@ impl Ranges {
             .0
             .iter()
             .take(max)
-            .map(|&(a, b)| if b == a + 1 { a.to_string() } else { format!("{a}–{}", b - 1) })
+            .map(|&(a, b)| {
+                if b == a + 1 {
+                    a.to_string()
+                } else {
+                    format!("{a}–{}", b - 1)
+                }
+            })
             .collect();
         if self.0.len() > max {
             parts.push(format!("… ({} ranges)", self.0.len()));
@@ -116,8 +122,10 @@ pub fn path(out: &Path) -> PathBuf {
 impl Manifest {
     pub fn load(out: &Path) -> Result<Manifest> {
         let p = path(out);
-        let text = std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
-        serde_json::from_str(&text).with_context(|| format!("{} is not a manifest of mc-study", p.display()))
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))?;
+        serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a manifest of mc-study", p.display()))
     }
 
     /// Writes atomically (temporary file, fsync, rename).

@@ -18,7 +18,10 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
     for p in part_files(out)? {
         let t = store::read(&p)?;
         if t.metadata.get(store::META_HASH) != Some(&manifest.study_hash) {
-            bail!("{} belongs to another study (its hash differs from manifest.json)", p.display());
+            bail!(
+                "{} belongs to another study (its hash differs from manifest.json)",
+                p.display()
+            );
         }
         if t.columns != manifest.columns {
             bail!("{} has other columns than manifest.json", p.display());
@@ -29,7 +32,14 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
     rows.sort_by_key(|r| r.id);
     rows.dedup_by_key(|r| r.id);
     let columns = manifest.columns.clone();
-    Ok((manifest, Table { columns, rows, metadata }))
+    Ok((
+        manifest,
+        Table {
+            columns,
+            rows,
+            metadata,
+        },
+    ))
 }
 
 pub struct Merged {
@@ -43,7 +53,8 @@ pub struct Merged {
 /// samples are missing and names them.
 pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
     let (manifest, mut table) = collect(out)?;
-    let missing = Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
+    let missing =
+        Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
     if !missing.is_empty() && !allow_partial {
         bail!(
             "{} of {} samples are missing: {}. Run the study again on this directory to complete it (it resumes), see `mc-study status {}`, or merge what is there with --allow-partial.",
@@ -56,14 +67,21 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
     if table.rows.is_empty() {
         bail!("{} holds no samples yet", out.display());
     }
-    table.metadata.insert("mc_study.complete".into(), missing.is_empty().to_string());
+    table
+        .metadata
+        .insert("mc_study.complete".into(), missing.is_empty().to_string());
     let path = out.join("results.parquet");
     store::write(&path, &table.columns, &table.rows, &table.metadata)?;
     let summary = Summary::of(&manifest.study_name, &table, &manifest.limits);
     let tmp = out.join(format!(".summary.json.{}.tmp", std::process::id()));
     std::fs::write(&tmp, summary.to_json())?;
     std::fs::rename(&tmp, out.join("summary.json"))?;
-    Ok(Merged { path, rows: table.rows.len() as u64, missing, summary })
+    Ok(Merged {
+        path,
+        rows: table.rows.len() as u64,
+        missing,
+        summary,
+    })
 }
 
 /// Per shard of an `n`-way split: (shard, samples, done, failed, missing ranges).
@@ -89,7 +107,11 @@ pub fn status(out: &Path, shards: Option<u64>) -> Result<(Manifest, Vec<ShardSta
                 shard,
                 samples: b - a,
                 done: (b - a) - missing.count(),
-                failed: table.rows.iter().filter(|r| in_shard(r.id) && r.failed()).count() as u64,
+                failed: table
+                    .rows
+                    .iter()
+                    .filter(|r| in_shard(r.id) && r.failed())
+                    .count() as u64,
                 missing,
             }
         })

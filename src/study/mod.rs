@@ -71,7 +71,10 @@ fn line<T>(s: &Spanned<T>) -> Option<u64> {
 
 fn quantity(q: &Q, dim: Option<Dim>, field: &str) -> Result<f64, StudyError> {
     let v = match dim {
-        Some(d) => q.value.value(d).map_err(|m| SceneError::at(line(q), field, m))?,
+        Some(d) => q
+            .value
+            .value(d)
+            .map_err(|m| SceneError::at(line(q), field, m))?,
         None => q.value.si,
     };
     if v.is_nan() {
@@ -80,7 +83,11 @@ fn quantity(q: &Q, dim: Option<Dim>, field: &str) -> Result<f64, StudyError> {
     Ok(v)
 }
 
-fn distribution(spec: &Spanned<DistributionSpec>, dim: Option<Dim>, field: &str) -> Result<Distribution, StudyError> {
+fn distribution(
+    spec: &Spanned<DistributionSpec>,
+    dim: Option<Dim>,
+    field: &str,
+) -> Result<Distribution, StudyError> {
     let f = |s: &str| format!("{field}.{s}");
     let q = |x: &Q, name: &str| quantity(x, dim, &f(name));
     let finite = |x: &Q, name: &str| -> Result<f64, StudyError> {
@@ -93,29 +100,49 @@ fn distribution(spec: &Spanned<DistributionSpec>, dim: Option<Dim>, field: &str)
     };
     let (d, kind) = match &spec.value {
         DistributionSpec::Normal { mean, sd } => (
-            Distribution::Normal { mean: finite(mean, "normal.mean")?, sd: finite(sd, "normal.sd")? },
+            Distribution::Normal {
+                mean: finite(mean, "normal.mean")?,
+                sd: finite(sd, "normal.sd")?,
+            },
             "normal",
         ),
-        DistributionSpec::TruncatedNormal { mean, sd, lower, upper } => (
+        DistributionSpec::TruncatedNormal {
+            mean,
+            sd,
+            lower,
+            upper,
+        } => (
             Distribution::TruncatedNormal {
                 mean: finite(mean, "truncated_normal.mean")?,
                 sd: finite(sd, "truncated_normal.sd")?,
-                lower: lower.as_ref().map_or(Ok(f64::NEG_INFINITY), |x| q(x, "truncated_normal.lower"))?,
-                upper: upper.as_ref().map_or(Ok(f64::INFINITY), |x| q(x, "truncated_normal.upper"))?,
+                lower: lower
+                    .as_ref()
+                    .map_or(Ok(f64::NEG_INFINITY), |x| q(x, "truncated_normal.lower"))?,
+                upper: upper
+                    .as_ref()
+                    .map_or(Ok(f64::INFINITY), |x| q(x, "truncated_normal.upper"))?,
             },
             "truncated_normal",
         ),
         DistributionSpec::Uniform { lower, upper } => (
-            Distribution::Uniform { lower: finite(lower, "uniform.lower")?, upper: finite(upper, "uniform.upper")? },
+            Distribution::Uniform {
+                lower: finite(lower, "uniform.lower")?,
+                upper: finite(upper, "uniform.upper")?,
+            },
             "uniform",
         ),
         DistributionSpec::Lognormal { mean, sd } => {
             let (m, s) = (finite(mean, "lognormal.mean")?, finite(sd, "lognormal.sd")?);
             if s < 0.0 {
-                return Err(SceneError::at(line(sd), f("lognormal.sd"), format!("must be ≥ 0, got {s}")));
+                return Err(SceneError::at(
+                    line(sd),
+                    f("lognormal.sd"),
+                    format!("must be ≥ 0, got {s}"),
+                ));
             }
             (
-                Distribution::lognormal(m, s).map_err(|e| SceneError::at(line(mean), f("lognormal.mean"), e))?,
+                Distribution::lognormal(m, s)
+                    .map_err(|e| SceneError::at(line(mean), f("lognormal.mean"), e))?,
                 "lognormal",
             )
         }
@@ -131,7 +158,11 @@ fn distribution(spec: &Spanned<DistributionSpec>, dim: Option<Dim>, field: &str)
     };
     d.validate().map_err(|m| {
         let l = match &spec.value {
-            DistributionSpec::Normal { sd, .. } | DistributionSpec::TruncatedNormal { sd, .. } if m.starts_with("sd") => line(sd),
+            DistributionSpec::Normal { sd, .. } | DistributionSpec::TruncatedNormal { sd, .. }
+                if m.starts_with("sd") =>
+            {
+                line(sd)
+            }
             _ => line(spec),
         };
         SceneError::at(l, f(kind), m)
@@ -155,15 +186,36 @@ impl Study {
 
     /// Parses and validates study text; `base` is the directory the scene path is relative
     /// to.
-    pub fn from_yaml(text: &str, file: &str, base: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
-        let spec: StudySpec = serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
-        Study::build(spec, text, base, samples).map_err(|e| if e.file.is_none() { e.in_file(file) } else { e })
+    pub fn from_yaml(
+        text: &str,
+        file: &str,
+        base: &Path,
+        samples: Option<u64>,
+    ) -> Result<Study, StudyError> {
+        let spec: StudySpec =
+            serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
+        Study::build(spec, text, base, samples).map_err(|e| {
+            if e.file.is_none() {
+                e.in_file(file)
+            } else {
+                e
+            }
+        })
     }
 
-    fn build(spec: StudySpec, text: &str, base: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
+    fn build(
+        spec: StudySpec,
+        text: &str,
+        base: &Path,
+        samples: Option<u64>,
+    ) -> Result<Study, StudyError> {
         let scene_path = base.join(&spec.scene.value);
         let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
-            SceneError::at(line(&spec.scene), "scene", format!("cannot read `{}`: {e}", scene_path.display()))
+            SceneError::at(
+                line(&spec.scene),
+                "scene",
+                format!("cannot read `{}`: {e}", scene_path.display()),
+            )
         })?;
         let mut subject = Subject::from_yaml(&scene_text, &scene_path.display().to_string())?;
 
@@ -173,7 +225,11 @@ impl Study {
         };
         if !(n >= 1.0 && n.fract() == 0.0 && n <= 1e12) {
             return Err(SceneError::at(
-                if samples.is_some() { None } else { line(&spec.samples) },
+                if samples.is_some() {
+                    None
+                } else {
+                    line(&spec.samples)
+                },
                 "samples",
                 format!("must be a whole number ≥ 1, got {n}"),
             ));
@@ -181,7 +237,14 @@ impl Study {
         let kind = match &spec.design {
             None => DesignKind::Random,
             Some(d) => DesignKind::parse(&d.value).ok_or_else(|| {
-                SceneError::at(line(d), "design", format!("unknown design `{}` (random, lhs, sobol, saltelli)", d.value))
+                SceneError::at(
+                    line(d),
+                    "design",
+                    format!(
+                        "unknown design `{}` (random, lhs, sobol, saltelli)",
+                        d.value
+                    ),
+                )
             })?,
         };
 
@@ -189,12 +252,17 @@ impl Study {
         for (i, p) in spec.parameters.iter().enumerate() {
             let field = format!("parameters[{i}]");
             if parameters.iter().any(|q| q.path == p.path.value) {
-                return Err(SceneError::at(line(&p.path), format!("{field}.path"), format!("`{}` is sampled twice", p.path.value)));
+                return Err(SceneError::at(
+                    line(&p.path),
+                    format!("{field}.path"),
+                    format!("`{}` is sampled twice", p.path.value),
+                ));
             }
             let dim = subject
                 .parameter_dim(&p.path.value)
                 .map_err(|m| SceneError::at(line(&p.path), format!("{field}.path"), m))?;
-            let distribution = distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
+            let distribution =
+                distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
             parameters.push(Parameter {
                 path: p.path.value.clone(),
                 distribution,
@@ -203,11 +271,27 @@ impl Study {
         }
 
         let available = subject.outputs();
-        let names = |v: &[(String, String)]| v.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", ");
+        let names = |v: &[(String, String)]| {
+            v.iter()
+                .map(|(n, _)| n.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         let find = |n: &Name, field: &str| {
-            available.iter().position(|(a, _)| *a == n.value).ok_or_else(|| {
-                SceneError::at(line(n), field, format!("unknown output `{}` (the scene's outputs: {})", n.value, names(&available)))
-            })
+            available
+                .iter()
+                .position(|(a, _)| *a == n.value)
+                .ok_or_else(|| {
+                    SceneError::at(
+                        line(n),
+                        field,
+                        format!(
+                            "unknown output `{}` (the scene's outputs: {})",
+                            n.value,
+                            names(&available)
+                        ),
+                    )
+                })
         };
         let mut outputs: Vec<Output> = Vec::new();
         match &spec.outputs {
@@ -215,36 +299,76 @@ impl Study {
                 for (i, n) in list.iter().enumerate() {
                     let index = find(n, &format!("outputs[{i}]"))?;
                     if outputs.iter().any(|o| o.index == index) {
-                        return Err(SceneError::at(line(n), format!("outputs[{i}]"), format!("`{}` is listed twice", n.value)));
+                        return Err(SceneError::at(
+                            line(n),
+                            format!("outputs[{i}]"),
+                            format!("`{}` is listed twice", n.value),
+                        ));
                     }
-                    outputs.push(Output { name: n.value.clone(), unit: available[index].1.clone(), index, lower: None, upper: None });
+                    outputs.push(Output {
+                        name: n.value.clone(),
+                        unit: available[index].1.clone(),
+                        index,
+                        lower: None,
+                        upper: None,
+                    });
                 }
             }
             None => {
                 for (index, (name, unit)) in available.iter().enumerate() {
-                    outputs.push(Output { name: name.clone(), unit: unit.clone(), index, lower: None, upper: None });
+                    outputs.push(Output {
+                        name: name.clone(),
+                        unit: unit.clone(),
+                        index,
+                        lower: None,
+                        upper: None,
+                    });
                 }
             }
         }
         if outputs.is_empty() {
-            return Err(SceneError::at(None, "outputs", "the study keeps no output (the scene defines no probes?)"));
+            return Err(SceneError::at(
+                None,
+                "outputs",
+                "the study keeps no output (the scene defines no probes?)",
+            ));
         }
         for (i, l) in spec.limits.iter().enumerate() {
             let field = format!("limits[{i}]");
             let index = find(&l.output, &format!("{field}.output"))?;
             let dim = unit_dim(&available[index].1);
             let Some(o) = outputs.iter_mut().find(|o| o.index == index) else {
-                return Err(SceneError::at(line(&l.output), format!("{field}.output"), format!("`{}` is not among the study's outputs", l.output.value)));
+                return Err(SceneError::at(
+                    line(&l.output),
+                    format!("{field}.output"),
+                    format!("`{}` is not among the study's outputs", l.output.value),
+                ));
             };
-            o.lower = l.lower.as_ref().map(|q| quantity(q, dim, &format!("{field}.lower"))).transpose()?;
-            o.upper = l.upper.as_ref().map(|q| quantity(q, dim, &format!("{field}.upper"))).transpose()?;
+            o.lower = l
+                .lower
+                .as_ref()
+                .map(|q| quantity(q, dim, &format!("{field}.lower")))
+                .transpose()?;
+            o.upper = l
+                .upper
+                .as_ref()
+                .map(|q| quantity(q, dim, &format!("{field}.upper")))
+                .transpose()?;
             if let (Some(a), Some(b)) = (o.lower, o.upper) {
                 if a >= b {
-                    return Err(SceneError::at(line(&l.output), field, format!("needs lower < upper, got [{a}, {b}]")));
+                    return Err(SceneError::at(
+                        line(&l.output),
+                        field,
+                        format!("needs lower < upper, got [{a}, {b}]"),
+                    ));
                 }
             }
             if o.lower.is_none() && o.upper.is_none() {
-                return Err(SceneError::at(line(&l.output), field, "give `lower`, `upper` or both"));
+                return Err(SceneError::at(
+                    line(&l.output),
+                    field,
+                    "give `lower`, `upper` or both",
+                ));
             }
         }
 
@@ -252,7 +376,11 @@ impl Study {
             match &mut subject {
                 Subject::Mechanism(scene) => apply_integrator(f, &mut scene.params, "fidelity")?,
                 Subject::Function(_) => {
-                    return Err(SceneError::at(None, "fidelity", "a function scene has no integrator to set"));
+                    return Err(SceneError::at(
+                        None,
+                        "fidelity",
+                        "a function scene has no integrator to set",
+                    ));
                 }
             }
         }
@@ -261,7 +389,11 @@ impl Study {
         let design = Design::new(kind, parameters.len(), n as u64, seed)
             .map_err(|m| SceneError::at(spec.design.as_ref().and_then(line), "design", m))?;
         if parameters.is_empty() && kind != DesignKind::Random {
-            return Err(SceneError::at(spec.design.as_ref().and_then(line), "design", "needs at least one parameter"));
+            return Err(SceneError::at(
+                spec.design.as_ref().and_then(line),
+                "design",
+                "needs at least one parameter",
+            ));
         }
         let name = spec
             .name
@@ -271,10 +403,10 @@ impl Study {
                 Subject::Mechanism(s) => s.name.clone(),
                 Subject::Function(f) => f.name.clone(),
             });
-        let output_dir = spec
-            .output
-            .as_ref()
-            .map_or_else(|| PathBuf::from("results").join(&name), |o| PathBuf::from(&o.value));
+        let output_dir = spec.output.as_ref().map_or_else(
+            || PathBuf::from("results").join(&name),
+            |o| PathBuf::from(&o.value),
+        );
         Ok(Study {
             name,
             description: spec.description.clone().unwrap_or_default(),
@@ -308,7 +440,12 @@ impl Study {
     /// Runs sample i.
     pub fn run_sample(&self, i: u64) -> (Vec<f64>, Outcome) {
         let x = self.inputs(i);
-        let params: Vec<(&str, f64)> = self.parameters.iter().map(|p| p.path.as_str()).zip(x.iter().copied()).collect();
+        let params: Vec<(&str, f64)> = self
+            .parameters
+            .iter()
+            .map(|p| p.path.as_str())
+            .zip(x.iter().copied())
+            .collect();
         let selected: Vec<usize> = self.outputs.iter().map(|o| o.index).collect();
         let outcome = self.subject.run(&params, &selected);
         (x, outcome)
@@ -329,7 +466,15 @@ impl Study {
 
 /// The dimension of an SI unit label produced by [`Dim::si_unit`] (`None` if unknown).
 fn unit_dim(unit: &str) -> Option<Dim> {
-    [Dim::NONE, Dim::LENGTH, Dim::MASS, Dim::TIME, Dim::VELOCITY, Dim::FORCE, Dim::TORQUE]
-        .into_iter()
-        .find(|d| d.si_unit() == unit && !unit.is_empty())
+    [
+        Dim::NONE,
+        Dim::LENGTH,
+        Dim::MASS,
+        Dim::TIME,
+        Dim::VELOCITY,
+        Dim::FORCE,
+        Dim::TORQUE,
+    ]
+    .into_iter()
+    .find(|d| d.si_unit() == unit && !unit.is_empty())
 }

@@ -31,14 +31,24 @@ impl Shard {
 
     /// Parses `I/N`; `/N` takes I from `SLURM_ARRAY_TASK_ID`.
     pub fn parse(text: &str) -> Result<Shard, String> {
-        let (i, n) = text.split_once('/').ok_or_else(|| format!("--shard `{text}`: expected I/N (e.g. 3/8) or /N"))?;
-        let count: u64 = n.trim().parse().map_err(|_| format!("--shard `{text}`: N must be a whole number ≥ 1"))?;
+        let (i, n) = text
+            .split_once('/')
+            .ok_or_else(|| format!("--shard `{text}`: expected I/N (e.g. 3/8) or /N"))?;
+        let count: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("--shard `{text}`: N must be a whole number ≥ 1"))?;
         let index: u64 = if i.trim().is_empty() {
-            let v = std::env::var("SLURM_ARRAY_TASK_ID")
-                .map_err(|_| format!("--shard `{text}` names no index and SLURM_ARRAY_TASK_ID is not set"))?;
-            v.trim().parse().map_err(|_| format!("SLURM_ARRAY_TASK_ID = `{v}` is not a whole number"))?
+            let v = std::env::var("SLURM_ARRAY_TASK_ID").map_err(|_| {
+                format!("--shard `{text}` names no index and SLURM_ARRAY_TASK_ID is not set")
+            })?;
+            v.trim()
+                .parse()
+                .map_err(|_| format!("SLURM_ARRAY_TASK_ID = `{v}` is not a whole number"))?
         } else {
-            i.trim().parse().map_err(|_| format!("--shard `{text}`: I must be a whole number"))?
+            i.trim()
+                .parse()
+                .map_err(|_| format!("--shard `{text}`: I must be a whole number"))?
         };
         if count == 0 || index >= count {
             return Err(format!("--shard {index}/{count}: needs 0 ≤ I < N"));
@@ -109,7 +119,10 @@ pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
     if dir.exists() {
         for e in std::fs::read_dir(&dir)? {
             let p = e?.path();
-            let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+            let name = p
+                .file_name()
+                .map(|n| n.to_string_lossy().to_string())
+                .unwrap_or_default();
             if name.starts_with("part-") && name.ends_with(".parquet") {
                 v.push(p);
             }
@@ -125,7 +138,10 @@ fn completed(out: &Path, hash: &str) -> Result<Ranges> {
     for p in part_files(out)? {
         let t = store::read(&p)?;
         if t.metadata.get(store::META_HASH).map(String::as_str) != Some(hash) {
-            bail!("{} belongs to another study (its hash differs); nothing was overwritten", p.display());
+            bail!(
+                "{} belongs to another study (its hash differs); nothing was overwritten",
+                p.display()
+            );
         }
         all = all.union(&Ranges::from_ids(t.rows.iter().map(|r| r.id).collect()));
     }
@@ -135,8 +151,16 @@ fn completed(out: &Path, hash: &str) -> Result<Ranges> {
 impl Study {
     pub fn columns(&self) -> Columns {
         Columns {
-            inputs: self.parameters.iter().map(|p| (p.path.clone(), p.unit.clone())).collect(),
-            outputs: self.outputs.iter().map(|o| (o.name.clone(), o.unit.clone())).collect(),
+            inputs: self
+                .parameters
+                .iter()
+                .map(|p| (p.path.clone(), p.unit.clone()))
+                .collect(),
+            outputs: self
+                .outputs
+                .iter()
+                .map(|o| (o.name.clone(), o.unit.clone()))
+                .collect(),
         }
     }
 
@@ -145,7 +169,10 @@ impl Study {
             (store::META_HASH.to_string(), self.hash()),
             (store::META_STUDY.to_string(), self.text.clone()),
             (store::META_SCENE.to_string(), self.scene_text.clone()),
-            (store::META_VERSION.to_string(), format!("mc-study {}", env!("CARGO_PKG_VERSION"))),
+            (
+                store::META_VERSION.to_string(),
+                format!("mc-study {}", env!("CARGO_PKG_VERSION")),
+            ),
             (store::META_NAME.to_string(), self.name.clone()),
         ])
     }
@@ -162,7 +189,11 @@ impl Study {
             limits: self
                 .outputs
                 .iter()
-                .map(|o| OutputLimits { name: o.name.clone(), lower: o.lower, upper: o.upper })
+                .map(|o| OutputLimits {
+                    name: o.name.clone(),
+                    lower: o.lower,
+                    upper: o.upper,
+                })
                 .collect(),
             shards,
             completed,
@@ -172,18 +203,33 @@ impl Study {
     /// The row of sample i.
     pub fn row(&self, i: u64) -> Row {
         let (inputs, o) = self.run_sample(i);
-        Row { id: i, inputs, outputs: o.outputs, diagnostics: o.diagnostics, error: o.error }
+        Row {
+            id: i,
+            inputs,
+            outputs: o.outputs,
+            diagnostics: o.diagnostics,
+            error: o.error,
+        }
     }
 }
 
 /// Claims the shard for this process (two processes never write the same part names).
 fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
     let p = parts_dir(out).join(format!(".shard-{}.lock", shard.label()));
-    let f = File::options().create(true).truncate(false).write(true).open(&p)?;
+    let f = File::options()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&p)?;
     match f.try_lock() {
         Ok(()) => Ok(f),
         Err(std::fs::TryLockError::WouldBlock) => {
-            bail!("shard {}/{} of {} is being run by another process", shard.index, shard.count, out.display())
+            bail!(
+                "shard {}/{} of {} is being run by another process",
+                shard.index,
+                shard.count,
+                out.display()
+            )
         }
         Err(std::fs::TryLockError::Error(e)) => Err(e).context("locking the shard"),
     }
@@ -192,18 +238,25 @@ fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
 /// Creates or reopens OUT for `study`: refuses another study's directory, cleans this
 /// shard's temporary files, and returns the completed ranges found in the parts.
 fn prepare(study: &Study, out: &Path, shard: Shard) -> Result<(Ranges, File)> {
-    std::fs::create_dir_all(parts_dir(out)).with_context(|| format!("creating {}", out.display()))?;
+    std::fs::create_dir_all(parts_dir(out))
+        .with_context(|| format!("creating {}", out.display()))?;
     let _dir = DirLock::acquire(out)?;
     let hash = study.hash();
     if super::manifest::path(out).exists() {
         Manifest::load(out)?.check_same_study(&hash, out)?;
     } else if !part_files(out)?.is_empty() {
-        bail!("{} holds part files but no manifest.json; refusing to mix results", out.display());
+        bail!(
+            "{} holds part files but no manifest.json; refusing to mix results",
+            out.display()
+        );
     }
     let shard_lock = lock_shard(out, shard)?;
     for e in std::fs::read_dir(parts_dir(out))? {
         let p = e?.path();
-        let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let name = p
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
         if name.starts_with(&format!(".part-{}-", shard.label())) && name.ends_with(".tmp") {
             std::fs::remove_file(&p)?;
         }
@@ -239,7 +292,8 @@ impl Writer<'_> {
         let ids = Ranges::from_ids(self.rows.iter().map(|r| r.id).collect());
         self.rows.clear();
         let _dir = DirLock::acquire(self.out)?;
-        let mut m = Manifest::load(self.out).unwrap_or_else(|_| self.study.manifest(self.shard.count, Ranges::default()));
+        let mut m = Manifest::load(self.out)
+            .unwrap_or_else(|_| self.study.manifest(self.shard.count, Ranges::default()));
         m.completed = m.completed.union(&ids);
         m.save(self.out)
     }
@@ -249,8 +303,14 @@ fn next_seq(out: &Path, shard: Shard) -> Result<u64> {
     let prefix = format!("part-{}-", shard.label());
     let mut next = 0;
     for p in part_files(out)? {
-        let name = p.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-        if let Some(seq) = name.strip_prefix(&prefix).and_then(|s| s.strip_suffix(".parquet")) {
+        let name = p
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default();
+        if let Some(seq) = name
+            .strip_prefix(&prefix)
+            .and_then(|s| s.strip_suffix(".parquet"))
+        {
             if let Ok(s) = seq.parse::<u64>() {
                 next = next.max(s + 1);
             }
@@ -274,15 +334,20 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
         metadata: study.file_metadata(),
         next_seq: next_seq(out, opts.shard)?,
         rows: Vec::new(),
-        report: RunReport { skipped: (b - a) - pending.count(), ..Default::default() },
+        report: RunReport {
+            skipped: (b - a) - pending.count(),
+            ..Default::default()
+        },
     };
 
     let bar = if opts.progress && std::io::stderr().is_terminal() {
         let pb = ProgressBar::with_draw_target(Some(pending.count()), ProgressDrawTarget::stderr());
         pb.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {pos}/{len} samples, {per_sec}, ETA {eta} {msg}")
-                .expect("valid template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{elapsed_precise} [{wide_bar}] {pos}/{len} samples, {per_sec}, ETA {eta} {msg}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
         );
         pb
     } else {
@@ -356,12 +421,16 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
             Ok(writer.report)
         });
         pool.install(|| {
-            pending.0.par_iter().flat_map(|&(a, b)| (a..b).into_par_iter()).for_each_with(tx, |tx, i| {
-                if stop.load(Ordering::Relaxed) {
-                    return;
-                }
-                let _ = tx.send(study.row(i));
-            });
+            pending
+                .0
+                .par_iter()
+                .flat_map(|&(a, b)| (a..b).into_par_iter())
+                .for_each_with(tx, |tx, i| {
+                    if stop.load(Ordering::Relaxed) {
+                        return;
+                    }
+                    let _ = tx.send(study.row(i));
+                });
         });
         handle.join().expect("the writer thread does not panic")
     });

@@ -137,9 +137,8 @@ mod tests {
     #[test]
     fn unscrambled_points_match_the_published_sequence() {
         let s = ScrambledSobol::new(3, None).unwrap();
-        let cell = |i: u64| -> Vec<f64> {
-            s.point(i).iter().map(|x| (x * 8.0).floor() / 8.0).collect()
-        };
+        let cell =
+            |i: u64| -> Vec<f64> { s.point(i).iter().map(|x| (x * 8.0).floor() / 8.0).collect() };
         // Gray-code order: 0, (1/2,1/2,1/2), (3/4,1/4,1/4)... (Joe & Kuo's first points)
         assert_eq!(cell(0), [0.0, 0.0, 0.0]);
         assert_eq!(cell(1), [0.5, 0.5, 0.5]);

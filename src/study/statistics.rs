@@ -24,7 +24,9 @@ pub fn mean_ci95(x: &[f64]) -> (f64, f64) {
     if n < 2 {
         return (f64::NAN, f64::NAN);
     }
-    let t = StudentsT::new(0.0, 1.0, (n - 1) as f64).expect("n ≥ 2").inverse_cdf(0.975);
+    let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
+        .expect("n ≥ 2")
+        .inverse_cdf(0.975);
     let half = t * sd(x) / (n as f64).sqrt();
     let m = mean(x);
     (m - half, m + half)
@@ -59,13 +61,22 @@ pub fn wilson95(k: u64, n: u64) -> (f64, f64) {
 
 /// Process capability: Cp = (U − L)/6σ (both limits needed) and
 /// Cpk = min(U − μ, μ − L)/3σ (over the limits given).
-pub fn capability(mean: f64, sd: f64, lower: Option<f64>, upper: Option<f64>) -> (Option<f64>, Option<f64>) {
+pub fn capability(
+    mean: f64,
+    sd: f64,
+    lower: Option<f64>,
+    upper: Option<f64>,
+) -> (Option<f64>, Option<f64>) {
     let cp = match (lower, upper) {
         (Some(l), Some(u)) => Some((u - l) / (6.0 * sd)),
         _ => None,
     };
-    let sides: Vec<f64> = [upper.map(|u| u - mean), lower.map(|l| mean - l)].into_iter().flatten().collect();
-    let cpk = (!sides.is_empty()).then(|| sides.iter().copied().fold(f64::INFINITY, f64::min) / (3.0 * sd));
+    let sides: Vec<f64> = [upper.map(|u| u - mean), lower.map(|l| mean - l)]
+        .into_iter()
+        .flatten()
+        .collect();
+    let cpk = (!sides.is_empty())
+        .then(|| sides.iter().copied().fold(f64::INFINITY, f64::min) / (3.0 * sd));
     (cp, cpk)
 }
 
@@ -116,8 +127,17 @@ pub fn histogram(sorted: &[f64]) -> (f64, f64, Vec<u64>) {
     let (lo, hi) = (sorted[0], sorted[n - 1]);
     let iqr = quantile_sorted(sorted, 0.75) - quantile_sorted(sorted, 0.25);
     let fd = 2.0 * iqr / (n as f64).cbrt();
-    let bins = if fd > 0.0 && hi > lo { ((hi - lo) / fd).ceil() as usize } else { 1 }.clamp(5, 60);
-    let width = if hi > lo { (hi - lo) / bins as f64 } else { 1.0 };
+    let bins = if fd > 0.0 && hi > lo {
+        ((hi - lo) / fd).ceil() as usize
+    } else {
+        1
+    }
+    .clamp(5, 60);
+    let width = if hi > lo {
+        (hi - lo) / bins as f64
+    } else {
+        1.0
+    };
     let mut counts = vec![0u64; bins];
     for &v in sorted {
         let k = (((v - lo) / width) as usize).min(bins - 1);
@@ -142,7 +162,10 @@ mod tests {
         ];
         for (k, n, lo, hi) in cases {
             let (a, b) = wilson95(k, n);
-            assert!((a - lo).abs() < 6e-5 && (b - hi).abs() < 6e-5, "{k}/{n}: {a:.4}–{b:.4}");
+            assert!(
+                (a - lo).abs() < 6e-5 && (b - hi).abs() < 6e-5,
+                "{k}/{n}: {a:.4}–{b:.4}"
+            );
         }
     }
 

@@ -43,15 +43,38 @@ pub struct Columns {
 /// Diagnostic columns: (name, unit, description).
 pub const DIAGNOSTICS: [(&str, &str, &str); 5] = [
     ("steps", "1", "time steps taken"),
-    ("max_penetration", "m", "largest penetration of any contact at a step end"),
-    ("max_solver_residual", "1", "largest contact-solver residual of any step"),
-    ("nonconverged_steps", "1", "steps whose solver, Newton loop or projection did not converge (counted per kind)"),
-    ("wall_ms", "ms", "wall time of the sample (the only column that differs between identical runs)"),
+    (
+        "max_penetration",
+        "m",
+        "largest penetration of any contact at a step end",
+    ),
+    (
+        "max_solver_residual",
+        "1",
+        "largest contact-solver residual of any step",
+    ),
+    (
+        "nonconverged_steps",
+        "1",
+        "steps whose solver, Newton loop or projection did not converge (counted per kind)",
+    ),
+    (
+        "wall_ms",
+        "ms",
+        "wall time of the sample (the only column that differs between identical runs)",
+    ),
 ];
 
 /// Column names no input or output may take.
 pub const RESERVED: [&str; 8] = [
-    "sample_id", "status", "error", "steps", "max_penetration", "max_solver_residual", "nonconverged_steps", "wall_ms",
+    "sample_id",
+    "status",
+    "error",
+    "steps",
+    "max_penetration",
+    "max_solver_residual",
+    "nonconverged_steps",
+    "wall_ms",
 ];
 
 /// Parquet key-value metadata keys.
@@ -79,7 +102,11 @@ impl Columns {
             fields.push(field(n, DataType::Float64, true, "output", u));
         }
         for (n, u, _) in DIAGNOSTICS {
-            let ty = if matches!(n, "steps" | "nonconverged_steps") { DataType::UInt64 } else { DataType::Float64 };
+            let ty = if matches!(n, "steps" | "nonconverged_steps") {
+                DataType::UInt64
+            } else {
+                DataType::Float64
+            };
             fields.push(field(n, ty, false, "diagnostic", u));
         }
         fields.push(field("status", DataType::Utf8, false, "status", ""));
@@ -88,14 +115,21 @@ impl Columns {
     }
 
     fn batch(&self, rows: &[Row], schema: Arc<Schema>) -> Result<RecordBatch> {
-        let f64s = |f: &dyn Fn(&Row) -> f64| -> ArrayRef { Arc::new(Float64Array::from_iter_values(rows.iter().map(f))) };
-        let u64s = |f: &dyn Fn(&Row) -> u64| -> ArrayRef { Arc::new(UInt64Array::from_iter_values(rows.iter().map(f))) };
+        let f64s = |f: &dyn Fn(&Row) -> f64| -> ArrayRef {
+            Arc::new(Float64Array::from_iter_values(rows.iter().map(f)))
+        };
+        let u64s = |f: &dyn Fn(&Row) -> u64| -> ArrayRef {
+            Arc::new(UInt64Array::from_iter_values(rows.iter().map(f)))
+        };
         let mut cols: Vec<ArrayRef> = vec![u64s(&|r| r.id)];
         for k in 0..self.inputs.len() {
             cols.push(f64s(&|r| r.inputs[k]));
         }
         for k in 0..self.outputs.len() {
-            let v: Float64Array = rows.iter().map(|r| Some(r.outputs[k]).filter(|x| !x.is_nan())).collect();
+            let v: Float64Array = rows
+                .iter()
+                .map(|r| Some(r.outputs[k]).filter(|x| !x.is_nan()))
+                .collect();
             cols.push(Arc::new(v));
         }
         cols.push(u64s(&|r| r.diagnostics.steps));
@@ -103,14 +137,26 @@ impl Columns {
         cols.push(f64s(&|r| r.diagnostics.max_solver_residual));
         cols.push(u64s(&|r| r.diagnostics.nonconverged_steps));
         cols.push(f64s(&|r| r.diagnostics.wall_ms));
-        cols.push(Arc::new(StringArray::from_iter_values(rows.iter().map(|r| if r.failed() { "failed" } else { "ok" }))));
-        cols.push(Arc::new(rows.iter().map(|r| r.error.as_deref()).collect::<StringArray>()));
+        cols.push(Arc::new(StringArray::from_iter_values(
+            rows.iter()
+                .map(|r| if r.failed() { "failed" } else { "ok" }),
+        )));
+        cols.push(Arc::new(
+            rows.iter()
+                .map(|r| r.error.as_deref())
+                .collect::<StringArray>(),
+        ));
         Ok(RecordBatch::try_new(schema, cols)?)
     }
 }
 
 /// Writes `rows` to `path` atomically (temporary name, fsync, rename, fsync of the directory).
-pub fn write(path: &Path, columns: &Columns, rows: &[Row], metadata: &HashMap<String, String>) -> Result<()> {
+pub fn write(
+    path: &Path,
+    columns: &Columns,
+    rows: &[Row],
+    metadata: &HashMap<String, String>,
+) -> Result<()> {
     let dir = path.parent().context("a file path has a directory")?;
     let name = path.file_name().context("a file name")?.to_string_lossy();
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
@@ -127,7 +173,8 @@ pub fn write(path: &Path, columns: &Columns, rows: &[Row], metadata: &HashMap<St
     let file = writer.into_inner()?;
     file.sync_all()?;
     drop(file);
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
     File::open(dir)?.sync_all()?;
     Ok(())
 }
@@ -149,21 +196,42 @@ fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
 /// Reads a study file written by [`write`].
 pub fn read(path: &Path) -> Result<Table> {
     let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file).with_context(|| format!("reading {}", path.display()))?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+        .with_context(|| format!("reading {}", path.display()))?;
     let schema = builder.schema().clone();
-    let metadata: HashMap<String, String> = schema.metadata().iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    let metadata: HashMap<String, String> = schema
+        .metadata()
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     let role = |f: &Field| f.metadata().get("role").cloned().unwrap_or_default();
     let unit = |f: &Field| f.metadata().get("unit").cloned().unwrap_or_default();
     let pick = |r: &str| -> Vec<(String, String)> {
-        schema.fields().iter().filter(|f| role(f) == r).map(|f| (f.name().clone(), unit(f))).collect()
+        schema
+            .fields()
+            .iter()
+            .filter(|f| role(f) == r)
+            .map(|f| (f.name().clone(), unit(f)))
+            .collect()
     };
-    let columns = Columns { inputs: pick("input"), outputs: pick("output") };
+    let columns = Columns {
+        inputs: pick("input"),
+        outputs: pick("output"),
+    };
     let mut rows = Vec::new();
     for batch in builder.build()? {
         let batch = batch.with_context(|| format!("reading {}", path.display()))?;
         let ids = column::<UInt64Array>(&batch, "sample_id")?;
-        let inputs: Vec<&Float64Array> = columns.inputs.iter().map(|(n, _)| column(&batch, n)).collect::<Result<_>>()?;
-        let outputs: Vec<&Float64Array> = columns.outputs.iter().map(|(n, _)| column(&batch, n)).collect::<Result<_>>()?;
+        let inputs: Vec<&Float64Array> = columns
+            .inputs
+            .iter()
+            .map(|(n, _)| column(&batch, n))
+            .collect::<Result<_>>()?;
+        let outputs: Vec<&Float64Array> = columns
+            .outputs
+            .iter()
+            .map(|(n, _)| column(&batch, n))
+            .collect::<Result<_>>()?;
         let steps = column::<UInt64Array>(&batch, "steps")?;
         let pen = column::<Float64Array>(&batch, "max_penetration")?;
         let res = column::<Float64Array>(&batch, "max_solver_residual")?;
@@ -175,12 +243,20 @@ pub fn read(path: &Path) -> Result<Table> {
             let failed = status.value(i) == "failed";
             let err = (!error.is_null(i)).then(|| error.value(i).to_string());
             if failed != err.is_some() {
-                bail!("{}: row {i} has status `{}` but error {:?}", path.display(), status.value(i), err);
+                bail!(
+                    "{}: row {i} has status `{}` but error {:?}",
+                    path.display(),
+                    status.value(i),
+                    err
+                );
             }
             rows.push(Row {
                 id: ids.value(i),
                 inputs: inputs.iter().map(|c| c.value(i)).collect(),
-                outputs: outputs.iter().map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) }).collect(),
+                outputs: outputs
+                    .iter()
+                    .map(|c| if c.is_null(i) { f64::NAN } else { c.value(i) })
+                    .collect(),
                 diagnostics: Diagnostics {
                     steps: steps.value(i),
                     max_penetration: pen.value(i),
@@ -192,5 +268,9 @@ pub fn read(path: &Path) -> Result<Table> {
             });
         }
     }
-    Ok(Table { columns, rows, metadata })
+    Ok(Table {
+        columns,
+        rows,
+        metadata,
+    })
 }

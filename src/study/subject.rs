@@ -55,8 +55,16 @@ impl Subject {
     /// (name, SI unit) of every output the scene defines.
     pub fn outputs(&self) -> Vec<(String, String)> {
         match self {
-            Subject::Mechanism(s) => s.probes.iter().map(|p| (p.name.clone(), p.unit.clone())).collect(),
-            Subject::Function(f) => f.outputs.iter().map(|o| (o.name.clone(), o.unit.clone())).collect(),
+            Subject::Mechanism(s) => s
+                .probes
+                .iter()
+                .map(|p| (p.name.clone(), p.unit.clone()))
+                .collect(),
+            Subject::Function(f) => f
+                .outputs
+                .iter()
+                .map(|o| (o.name.clone(), o.unit.clone()))
+                .collect(),
         }
     }
 
@@ -72,9 +80,8 @@ impl Subject {
     /// by index. Never panics: a panic inside the engine becomes a failed outcome.
     pub fn run(&self, parameters: &[(&str, f64)], selected: &[usize]) -> Outcome {
         let start = Instant::now();
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            self.run_inner(parameters)
-        }));
+        let result =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.run_inner(parameters)));
         let (values, mut diagnostics, error) = match result {
             Ok(r) => r,
             Err(panic) => {
@@ -83,7 +90,11 @@ impl Subject {
                     .cloned()
                     .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                     .unwrap_or_else(|| "unknown panic".into());
-                (Vec::new(), Diagnostics::default(), Some(format!("internal error (panic): {msg}")))
+                (
+                    Vec::new(),
+                    Diagnostics::default(),
+                    Some(format!("internal error (panic): {msg}")),
+                )
             }
         };
         diagnostics.wall_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -128,7 +139,9 @@ impl Subject {
                 };
                 let mut recorder = ProbeRecorder::new(&scene.probes);
                 recorder.observe(&sim);
-                let steps = ((scene.duration - sim.state.t) / sim.params.h).round().max(0.0) as u64;
+                let steps = ((scene.duration - sim.state.t) / sim.params.h)
+                    .round()
+                    .max(0.0) as u64;
                 let mut failure = None;
                 for _ in 0..steps {
                     if let Err(e) = sim.step() {
@@ -145,7 +158,9 @@ impl Subject {
                     steps: st.steps,
                     max_penetration: st.max_penetration,
                     max_solver_residual: st.max_solver_residual,
-                    nonconverged_steps: st.solver_failures + st.newton_failures + st.projection_failures,
+                    nonconverged_steps: st.solver_failures
+                        + st.newton_failures
+                        + st.projection_failures,
                     wall_ms: 0.0,
                 };
                 if let Some(e) = failure {

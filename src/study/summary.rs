@@ -99,8 +99,15 @@ impl Summary {
                 sd,
                 min: x.first().copied().unwrap_or(f64::NAN),
                 max: x.last().copied().unwrap_or(f64::NAN),
-                quantiles: QUANTILES.iter().map(|&p| (p, st::quantile_sorted(&x, p))).collect(),
-                histogram: Histogram { lower: hl, width: hw, counts },
+                quantiles: QUANTILES
+                    .iter()
+                    .map(|&p| (p, st::quantile_sorted(&x, p)))
+                    .collect(),
+                histogram: Histogram {
+                    lower: hl,
+                    width: hw,
+                    counts,
+                },
                 lower_limit: lower,
                 upper_limit: upper,
                 out_of_spec,
@@ -123,13 +130,20 @@ impl Summary {
         }
         let mut failures: Vec<(String, u64)> = Vec::new();
         for r in table.rows.iter().filter(|r| r.failed()) {
-            let reason = r.error.as_deref().unwrap_or("").lines().next().unwrap_or("").to_string();
+            let reason = r
+                .error
+                .as_deref()
+                .unwrap_or("")
+                .lines()
+                .next()
+                .unwrap_or("")
+                .to_string();
             match failures.iter_mut().find(|(m, _)| *m == reason) {
                 Some(f) => f.1 += 1,
                 None => failures.push((reason, 1)),
             }
         }
-        failures.sort_by(|a, b| b.1.cmp(&a.1));
+        failures.sort_by_key(|f| std::cmp::Reverse(f.1));
         Summary {
             study: study.to_string(),
             samples: table.rows.len() as u64,
@@ -150,7 +164,11 @@ impl Summary {
     /// The table printed after a run or a merge.
     pub fn table(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "study {}: {} samples, {} failed", self.study, self.samples, self.failed);
+        let _ = writeln!(
+            s,
+            "study {}: {} samples, {} failed",
+            self.study, self.samples, self.failed
+        );
         let label = |o: &OutputSummary| {
             if o.unit.is_empty() || o.unit == "1" {
                 o.name.clone()
@@ -158,7 +176,13 @@ impl Summary {
                 format!("{} [{}]", o.name, o.unit)
             }
         };
-        let w = self.outputs.iter().map(|o| label(o).chars().count()).max().unwrap_or(6).max(6);
+        let w = self
+            .outputs
+            .iter()
+            .map(|o| label(o).chars().count())
+            .max()
+            .unwrap_or(6)
+            .max(6);
         let _ = writeln!(
             s,
             "{:<w$} {:>6} {:>13} {:>27} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
@@ -166,7 +190,12 @@ impl Summary {
         );
         let g = |v: f64| format!("{v:.5e}");
         for o in &self.outputs {
-            let q = |p: f64| o.quantiles.iter().find(|(x, _)| *x == p).map_or(f64::NAN, |q| q.1);
+            let q = |p: f64| {
+                o.quantiles
+                    .iter()
+                    .find(|(x, _)| *x == p)
+                    .map_or(f64::NAN, |q| q.1)
+            };
             let _ = writeln!(
                 s,
                 "{:<w$} {:>6} {:>13} {:>27} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
@@ -200,7 +229,11 @@ impl Summary {
         if !self.correlations.is_empty() {
             let _ = writeln!(s, "correlations (Pearson / Spearman):");
             for c in &self.correlations {
-                let _ = writeln!(s, "  {:<28} → {:<24} {:>7.3} / {:>7.3}", c.input, c.output, c.pearson, c.spearman);
+                let _ = writeln!(
+                    s,
+                    "  {:<28} → {:<24} {:>7.3} / {:>7.3}",
+                    c.input, c.output, c.pearson, c.spearman
+                );
             }
         }
         for (reason, n) in &self.failures {

@@ -40,5 +40,8 @@ pub fn scratch(name: &str) -> std::path::PathBuf {
 
 /// The bundled study file `studies/<name>/<file>`.
 pub fn study_path(name: &str, file: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("studies").join(name).join(file)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("studies")
+        .join(name)
+        .join(file)
 }
