@@ -5,7 +5,9 @@ use clap::{Parser, Subcommand};
 use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
 use mc_study::study::merge::{merge, status};
+use mc_study::study::manifest::Manifest;
 use mc_study::study::runner::{self, RunOptions, Shard};
+use mc_study::study::slurm::{sbatch, write_scripts, SlurmOptions};
 use mc_study::study::Study;
 use mc_study::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
@@ -75,6 +77,45 @@ enum Command {
         /// Shard count to report on (default: that of the latest run).
         #[arg(long)]
         shards: Option<u64>,
+    },
+    /// Writes Slurm job-array scripts for a study into OUT/slurm/ (array.sbatch: task i
+    /// runs shard i/N into the shared OUT; merge.sbatch: the merge, to run after all tasks)
+    /// and, with --submit, submits both (the merge with --dependency=afterany). OUT must be
+    /// on a filesystem every node sees.
+    Slurm {
+        /// Study YAML file.
+        study: PathBuf,
+        /// Number of array tasks N (shards).
+        #[arg(long)]
+        tasks: u64,
+        /// Output directory shared by all tasks (default: the study's `output`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Number of samples (overrides the study's `samples`).
+        #[arg(long)]
+        samples: Option<u64>,
+        /// Slurm partition.
+        #[arg(long)]
+        partition: Option<String>,
+        /// Time limit per task (Slurm format, e.g. 02:00:00).
+        #[arg(long)]
+        time: Option<String>,
+        /// CPUs per task; each task runs that many worker threads (default 1).
+        #[arg(long)]
+        cpus_per_task: Option<u32>,
+        /// Memory per task (Slurm format, e.g. 2G).
+        #[arg(long)]
+        mem: Option<String>,
+        /// Slurm account to charge.
+        #[arg(long)]
+        account: Option<String>,
+        /// Samples per part file written by the tasks (default 1024; smaller loses less
+        /// when a task is killed or preempted).
+        #[arg(long)]
+        part_rows: Option<usize>,
+        /// Submit the array and the merge job with sbatch and print their ids.
+        #[arg(long)]
+        submit: bool,
     },
     Simulate {
         /// Scene YAML file (see studies/*/scene.yaml).
@@ -255,6 +296,53 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     Ok(true)
 }
 
+/// Absolute form of a path that may not exist yet (its parent must).
+fn absolute(p: &Path) -> Result<PathBuf> {
+    Ok(std::path::absolute(p)?)
+}
+
+fn slurm(study_path: &Path, out: Option<&PathBuf>, mut o: SlurmOptions, submit: bool) -> Result<()> {
+    let study = Study::load(study_path, o.samples)?;
+    if o.tasks == 0 || o.tasks > study.runs() {
+        bail!("--tasks must be between 1 and the study's {} runs, got {}", study.runs(), o.tasks);
+    }
+    if o.part_rows == Some(0) {
+        bail!("--part-rows must be ≥ 1");
+    }
+    let out = absolute(out.unwrap_or(&study.output_dir))?;
+    if mc_study::study::manifest::path(&out).exists() {
+        Manifest::load(&out)?.check_same_study(&study.hash(), &out)?;
+    }
+    let exe = std::env::current_exe().context("locating the mc-study executable")?;
+    let study_abs = std::fs::canonicalize(study_path)?;
+    o.cpus_per_task = Some(o.cpus_per_task.unwrap_or(1));
+    let (array, merge_script) = mc_study::study::slurm::scripts(&study.name, &exe, &study_abs, &out, &o);
+    let (a, m) = write_scripts(&out, &array, &merge_script)?;
+    let per = study.runs().div_ceil(o.tasks);
+    println!(
+        "wrote {} ({} tasks, about {per} of the {} samples each, {} CPU(s) per task) and {}",
+        a.display(),
+        o.tasks,
+        study.runs(),
+        o.cpus_per_task.unwrap_or(1),
+        m.display()
+    );
+    let (a, m, d) = (a.display(), m.display(), out.display());
+    if submit {
+        let job = sbatch(&[&a.to_string()])?;
+        let merge_job = sbatch(&[&format!("--dependency=afterany:{job}"), &m.to_string()])?;
+        println!("submitted array job {job} (tasks {job}_0 … {job}_{}) and merge job {merge_job} (runs after every task ended)", o.tasks - 1);
+        println!("watch:     squeue -j {job}    or    mc-study status {d}");
+    } else {
+        println!("submit:    job=$(sbatch --parsable {a}) && sbatch --dependency=afterany:$job {m}");
+        println!("watch:     squeue -j <job>    or    mc-study status {d}");
+    }
+    println!("resubmit:  sbatch --array=<indices from `mc-study status {d}`> {a}   (a task resumes its shard)");
+    println!("merge:     sbatch --dependency=afterany:<job> {m}    or    mc-study merge {d}");
+    println!("logs:      {d}/slurm/logs/");
+    Ok(())
+}
+
 fn print_status(out: &Path, shards: Option<u64>) -> Result<()> {
     let (m, v) = status(out, shards)?;
     println!(
@@ -347,6 +435,33 @@ fn main() -> std::process::ExitCode {
             }
         }),
         Command::Status { out, shards } => print_status(out, *shards),
+        Command::Slurm {
+            study,
+            tasks,
+            out,
+            samples,
+            partition,
+            time,
+            cpus_per_task,
+            mem,
+            account,
+            part_rows,
+            submit,
+        } => slurm(
+            study,
+            out.as_ref(),
+            SlurmOptions {
+                tasks: *tasks,
+                partition: partition.clone(),
+                time: time.clone(),
+                cpus_per_task: *cpus_per_task,
+                mem: mem.clone(),
+                account: account.clone(),
+                samples: *samples,
+                part_rows: *part_rows,
+            },
+            *submit,
+        ),
         Command::Simulate {
             scene,
             out,

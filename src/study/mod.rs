@@ -8,6 +8,7 @@ pub mod manifest;
 pub mod merge;
 pub mod runner;
 mod schema;
+pub mod slurm;
 pub mod sobol;
 pub mod statistics;
 pub mod store;

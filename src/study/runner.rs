@@ -280,9 +280,10 @@ struct Writer<'a> {
 }
 
 impl Writer<'_> {
-    fn flush(&mut self) -> Result<()> {
+    /// Writes the buffered rows as a part; whether there were any.
+    fn flush(&mut self) -> Result<bool> {
         if self.rows.is_empty() {
-            return Ok(());
+            return Ok(false);
         }
         let name = format!("part-{}-{:06}.parquet", self.shard.label(), self.next_seq);
         let path = parts_dir(self.out).join(&name);
@@ -295,7 +296,8 @@ impl Writer<'_> {
         let mut m = Manifest::load(self.out)
             .unwrap_or_else(|_| self.study.manifest(self.shard.count, Ranges::default()));
         m.completed = m.completed.union(&ids);
-        m.save(self.out)
+        m.save(self.out)?;
+        Ok(true)
     }
 }
 
@@ -391,9 +393,9 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
                 };
                 let due = oldest.is_some_and(|t| t.elapsed() >= budget);
                 if writer.rows.len() >= opts.rows_per_part || due || !open {
-                    writer.flush()?;
+                    let wrote = writer.flush()?;
                     oldest = None;
-                    if logging && writer.report.done > 0 {
+                    if logging && wrote {
                         eprintln!(
                             "{}: {}/{total} samples of shard {}/{} done ({} failed), {:.1} samples/s",
                             study.name,

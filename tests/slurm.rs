@@ -1,0 +1,152 @@
+//! `mc-study slurm` on a real Slurm: a 4-task array, one task cancelled mid-run, its index
+//! resubmitted, the merge job run; the merged results equal a single-machine run.
+//! Runs when built with MC_STUDY_SLURM=1 (`.ci/run` starts `../shared/tools/local-slurm`
+//! and sets it); otherwise it is reported as ignored.
+
+mod common;
+
+use common::{scratch, study_path};
+use mc_study::study::merge::merge;
+use mc_study::study::runner::{run, RunOptions};
+use mc_study::study::store::{self, Row};
+use mc_study::study::Study;
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+const SAMPLES: u64 = 800;
+
+fn sh(cmd: &str, args: &[&str]) -> String {
+    let out = Command::new(cmd).args(args).output().unwrap_or_else(|e| panic!("{cmd}: {e}"));
+    assert!(out.status.success(), "{cmd} {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+/// Waits until `squeue` lists none of `jobs` (finished, failed or cancelled).
+fn wait_gone(jobs: &[&str], deadline: Instant) {
+    loop {
+        let q = sh("squeue", &["-h", "-o", "%i %T", "-j", &jobs.join(",")]);
+        if q.trim().is_empty() {
+            return;
+        }
+        assert!(Instant::now() < deadline, "jobs still queued:\n{q}");
+        std::thread::sleep(Duration::from_millis(250));
+    }
+}
+
+fn rows(path: &Path) -> Vec<Row> {
+    store::read(path)
+        .unwrap()
+        .rows
+        .into_iter()
+        .map(|mut r| {
+            r.diagnostics.wall_ms = 0.0;
+            r
+        })
+        .collect()
+}
+
+fn parts_of(out: &Path, label: &str) -> Vec<std::path::PathBuf> {
+    std::fs::read_dir(out.join("parts"))
+        .map(|d| {
+            d.filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    let n = p.file_name().unwrap().to_string_lossy().to_string();
+                    n.starts_with(&format!("part-{label}-")) && n.ends_with(".parquet")
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+#[cfg_attr(
+    not(slurm_cluster),
+    ignore = "needs a Slurm cluster: `../shared/tools/local-slurm start`, then MC_STUDY_SLURM=1 cargo test (.ci/run does both)"
+)]
+fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_results() {
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let study = study_path("bouncing-ball", "study.yaml");
+    let out = scratch("slurm-array");
+    let deadline = Instant::now() + Duration::from_secs(600);
+    let n = SAMPLES.to_string();
+    let printed = sh(
+        exe,
+        &[
+            "slurm",
+            study.to_str().unwrap(),
+            "--tasks",
+            "4",
+            "--samples",
+            &n,
+            "--out",
+            out.to_str().unwrap(),
+            "--part-rows",
+            "5",
+            "--submit",
+        ],
+    );
+    // "submitted array job 12 (tasks 12_0 … 12_3) and merge job 13 (…)"
+    let words: Vec<&str> = printed.split_whitespace().collect();
+    let id_after = |x: &str, y: &str| -> String {
+        let i = words.windows(2).position(|w| w[0] == x && w[1] == y).unwrap_or_else(|| panic!("{printed}"));
+        words[i + 2].to_string()
+    };
+    let (job, merge_job) = (id_after("array", "job"), id_after("merge", "job"));
+    assert!(job.chars().all(|c| c.is_ascii_digit()) && merge_job.chars().all(|c| c.is_ascii_digit()), "{printed}");
+
+    // cancel task 3 once it has written at least one part, while it still has work to do
+    let task = format!("{job}_3");
+    loop {
+        let written = parts_of(&out, "3of4").len();
+        if written >= 1 {
+            sh("scancel", &[&task]);
+            break;
+        }
+        assert!(Instant::now() < deadline, "task {task} never wrote a part");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    wait_gone(&[&job, &merge_job], deadline);
+
+    // the merge job ran after every task ended and refused: shard 3 is incomplete
+    let merge_log = std::fs::read_to_string(out.join("slurm/logs").join(format!("merge-{merge_job}.out"))).unwrap();
+    assert!(merge_log.contains("samples are missing"), "{merge_log}");
+    assert!(!out.join("results.parquet").exists());
+    let status = sh(exe, &["status", out.to_str().unwrap()]);
+    assert!(status.contains("--array=3"), "{status}");
+    assert!(status.lines().any(|l| l.starts_with("3/4") && l.ends_with("partial")), "{status}");
+    let before: usize = parts_of(&out, "3of4").iter().map(|p| store::read(p).unwrap().rows.len()).sum();
+    assert!(before > 0 && (before as u64) < SAMPLES / 4, "task 3 saved {before} samples before cancellation");
+
+    // resubmit index 3 only, then the merge job after it
+    let array = out.join("slurm/array.sbatch");
+    let again = sh("sbatch", &["--parsable", "--array=3", array.to_str().unwrap()]).trim().to_string();
+    let merge_script = out.join("slurm/merge.sbatch");
+    let merge2 = sh(
+        "sbatch",
+        &["--parsable", &format!("--dependency=afterany:{again}"), merge_script.to_str().unwrap()],
+    )
+    .trim()
+    .to_string();
+    wait_gone(&[&again, &merge2], deadline);
+    let log = std::fs::read_to_string(out.join("slurm/logs/task-3.out")).unwrap();
+    assert!(log.contains(&format!("{before} already done")), "the resubmitted task did not resume:\n{log}");
+
+    // every sample in exactly one part, and the merged file equals a single-machine run
+    let mut ids: Vec<u64> = Vec::new();
+    for label in ["0of4", "1of4", "2of4", "3of4"] {
+        for p in parts_of(&out, label) {
+            ids.extend(store::read(&p).unwrap().rows.iter().map(|r| r.id));
+        }
+    }
+    ids.sort_unstable();
+    assert_eq!(ids, (0..SAMPLES).collect::<Vec<_>>());
+    assert!(out.join("results.parquet").exists(), "the second merge job wrote no results");
+    let single = scratch("slurm-single-machine");
+    let s = Study::load(&study, Some(SAMPLES)).unwrap();
+    let mut o = RunOptions::new(single.clone());
+    o.progress = false;
+    run(&s, &o).unwrap();
+    merge(&single, false).unwrap();
+    assert_eq!(rows(&out.join("results.parquet")), rows(&single.join("results.parquet")));
+}
