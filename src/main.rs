@@ -4,8 +4,8 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
-use mc_study::study::merge::{merge, status};
 use mc_study::study::manifest::Manifest;
+use mc_study::study::merge::{merge, status};
 use mc_study::study::runner::{self, RunOptions, Shard};
 use mc_study::study::slurm::{sbatch, write_scripts, SlurmOptions};
 use mc_study::study::Study;
@@ -301,10 +301,19 @@ fn absolute(p: &Path) -> Result<PathBuf> {
     Ok(std::path::absolute(p)?)
 }
 
-fn slurm(study_path: &Path, out: Option<&PathBuf>, mut o: SlurmOptions, submit: bool) -> Result<()> {
+fn slurm(
+    study_path: &Path,
+    out: Option<&PathBuf>,
+    mut o: SlurmOptions,
+    submit: bool,
+) -> Result<()> {
     let study = Study::load(study_path, o.samples)?;
     if o.tasks == 0 || o.tasks > study.runs() {
-        bail!("--tasks must be between 1 and the study's {} runs, got {}", study.runs(), o.tasks);
+        bail!(
+            "--tasks must be between 1 and the study's {} runs, got {}",
+            study.runs(),
+            o.tasks
+        );
     }
     if o.part_rows == Some(0) {
         bail!("--part-rows must be ≥ 1");
@@ -316,7 +325,8 @@ fn slurm(study_path: &Path, out: Option<&PathBuf>, mut o: SlurmOptions, submit: 
     let exe = std::env::current_exe().context("locating the mc-study executable")?;
     let study_abs = std::fs::canonicalize(study_path)?;
     o.cpus_per_task = Some(o.cpus_per_task.unwrap_or(1));
-    let (array, merge_script) = mc_study::study::slurm::scripts(&study.name, &exe, &study_abs, &out, &o);
+    let (array, merge_script) =
+        mc_study::study::slurm::scripts(&study.name, &exe, &study_abs, &out, &o);
     let (a, m) = write_scripts(&out, &array, &merge_script)?;
     let per = study.runs().div_ceil(o.tasks);
     println!(
@@ -334,7 +344,9 @@ fn slurm(study_path: &Path, out: Option<&PathBuf>, mut o: SlurmOptions, submit: 
         println!("submitted array job {job} (tasks {job}_0 … {job}_{}) and merge job {merge_job} (runs after every task ended)", o.tasks - 1);
         println!("watch:     squeue -j {job}    or    mc-study status {d}");
     } else {
-        println!("submit:    job=$(sbatch --parsable {a}) && sbatch --dependency=afterany:$job {m}");
+        println!(
+            "submit:    job=$(sbatch --parsable {a}) && sbatch --dependency=afterany:$job {m}"
+        );
         println!("watch:     squeue -j <job>    or    mc-study status {d}");
     }
     println!("resubmit:  sbatch --array=<indices from `mc-study status {d}`> {a}   (a task resumes its shard)");

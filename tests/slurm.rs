@@ -17,8 +17,15 @@ use std::time::{Duration, Instant};
 const SAMPLES: u64 = 800;
 
 fn sh(cmd: &str, args: &[&str]) -> String {
-    let out = Command::new(cmd).args(args).output().unwrap_or_else(|e| panic!("{cmd}: {e}"));
-    assert!(out.status.success(), "{cmd} {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(cmd)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("{cmd}: {e}"));
+    assert!(
+        out.status.success(),
+        "{cmd} {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8_lossy(&out.stdout).to_string()
 }
 
@@ -89,11 +96,17 @@ fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_resu
     // "submitted array job 12 (tasks 12_0 … 12_3) and merge job 13 (…)"
     let words: Vec<&str> = printed.split_whitespace().collect();
     let id_after = |x: &str, y: &str| -> String {
-        let i = words.windows(2).position(|w| w[0] == x && w[1] == y).unwrap_or_else(|| panic!("{printed}"));
+        let i = words
+            .windows(2)
+            .position(|w| w[0] == x && w[1] == y)
+            .unwrap_or_else(|| panic!("{printed}"));
         words[i + 2].to_string()
     };
     let (job, merge_job) = (id_after("array", "job"), id_after("merge", "job"));
-    assert!(job.chars().all(|c| c.is_ascii_digit()) && merge_job.chars().all(|c| c.is_ascii_digit()), "{printed}");
+    assert!(
+        job.chars().all(|c| c.is_ascii_digit()) && merge_job.chars().all(|c| c.is_ascii_digit()),
+        "{printed}"
+    );
 
     // cancel task 3 once it has written at least one part, while it still has work to do
     let task = format!("{job}_3");
@@ -109,28 +122,55 @@ fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_resu
     wait_gone(&[&job, &merge_job], deadline);
 
     // the merge job ran after every task ended and refused: shard 3 is incomplete
-    let merge_log = std::fs::read_to_string(out.join("slurm/logs").join(format!("merge-{merge_job}.out"))).unwrap();
+    let merge_log = std::fs::read_to_string(
+        out.join("slurm/logs")
+            .join(format!("merge-{merge_job}.out")),
+    )
+    .unwrap();
     assert!(merge_log.contains("samples are missing"), "{merge_log}");
     assert!(!out.join("results.parquet").exists());
     let status = sh(exe, &["status", out.to_str().unwrap()]);
     assert!(status.contains("--array=3"), "{status}");
-    assert!(status.lines().any(|l| l.starts_with("3/4") && l.ends_with("partial")), "{status}");
-    let before: usize = parts_of(&out, "3of4").iter().map(|p| store::read(p).unwrap().rows.len()).sum();
-    assert!(before > 0 && (before as u64) < SAMPLES / 4, "task 3 saved {before} samples before cancellation");
+    assert!(
+        status
+            .lines()
+            .any(|l| l.starts_with("3/4") && l.ends_with("partial")),
+        "{status}"
+    );
+    let before: usize = parts_of(&out, "3of4")
+        .iter()
+        .map(|p| store::read(p).unwrap().rows.len())
+        .sum();
+    assert!(
+        before > 0 && (before as u64) < SAMPLES / 4,
+        "task 3 saved {before} samples before cancellation"
+    );
 
     // resubmit index 3 only, then the merge job after it
     let array = out.join("slurm/array.sbatch");
-    let again = sh("sbatch", &["--parsable", "--array=3", array.to_str().unwrap()]).trim().to_string();
+    let again = sh(
+        "sbatch",
+        &["--parsable", "--array=3", array.to_str().unwrap()],
+    )
+    .trim()
+    .to_string();
     let merge_script = out.join("slurm/merge.sbatch");
     let merge2 = sh(
         "sbatch",
-        &["--parsable", &format!("--dependency=afterany:{again}"), merge_script.to_str().unwrap()],
+        &[
+            "--parsable",
+            &format!("--dependency=afterany:{again}"),
+            merge_script.to_str().unwrap(),
+        ],
     )
     .trim()
     .to_string();
     wait_gone(&[&again, &merge2], deadline);
     let log = std::fs::read_to_string(out.join("slurm/logs/task-3.out")).unwrap();
-    assert!(log.contains(&format!("{before} already done")), "the resubmitted task did not resume:\n{log}");
+    assert!(
+        log.contains(&format!("{before} already done")),
+        "the resubmitted task did not resume:\n{log}"
+    );
 
     // every sample in exactly one part, and the merged file equals a single-machine run
     let mut ids: Vec<u64> = Vec::new();
@@ -141,12 +181,18 @@ fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_resu
     }
     ids.sort_unstable();
     assert_eq!(ids, (0..SAMPLES).collect::<Vec<_>>());
-    assert!(out.join("results.parquet").exists(), "the second merge job wrote no results");
+    assert!(
+        out.join("results.parquet").exists(),
+        "the second merge job wrote no results"
+    );
     let single = scratch("slurm-single-machine");
     let s = Study::load(&study, Some(SAMPLES)).unwrap();
     let mut o = RunOptions::new(single.clone());
     o.progress = false;
     run(&s, &o).unwrap();
     merge(&single, false).unwrap();
-    assert_eq!(rows(&out.join("results.parquet")), rows(&single.join("results.parquet")));
+    assert_eq!(
+        rows(&out.join("results.parquet")),
+        rows(&single.join("results.parquet"))
+    );
 }

@@ -24,7 +24,10 @@ pub struct SlurmOptions {
 
 /// Quotes a word for bash (single quotes; embedded quotes escaped).
 fn quote(s: &str) -> String {
-    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c)) {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c))
+    {
         s.to_string()
     } else {
         format!("'{}'", s.replace('\'', r"'\''"))
@@ -39,13 +42,26 @@ fn directive(lines: &mut Vec<String>, key: &str, value: &Option<String>) {
 
 /// The two scripts: (array.sbatch, merge.sbatch). Paths must be absolute: tasks run on
 /// other machines, from other directories.
-pub fn scripts(name: &str, exe: &Path, study: &Path, out: &Path, o: &SlurmOptions) -> (String, String) {
+pub fn scripts(
+    name: &str,
+    exe: &Path,
+    study: &Path,
+    out: &Path,
+    o: &SlurmOptions,
+) -> (String, String) {
     let logs = out.join("slurm").join("logs");
-    let job = format!("mc-{}", name.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_"));
+    let job = format!(
+        "mc-{}",
+        name.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-', "_")
+    );
     let mut a = vec![
         "#!/bin/bash".to_string(),
-        format!("# mc-study: {} tasks of study `{name}`; task i runs shard i/{}.", o.tasks, o.tasks),
-        "# Resubmit only some tasks with: sbatch --array=3,5 THIS_FILE (a task resumes its shard).".to_string(),
+        format!(
+            "# mc-study: {} tasks of study `{name}`; task i runs shard i/{}.",
+            o.tasks, o.tasks
+        ),
+        "# Resubmit only some tasks with: sbatch --array=3,5 THIS_FILE (a task resumes its shard)."
+            .to_string(),
         format!("#SBATCH --job-name={job}"),
         format!("#SBATCH --array=0-{}", o.tasks - 1),
         format!("#SBATCH --output={}/task-%a.out", logs.display()),
@@ -86,14 +102,19 @@ pub fn scripts(name: &str, exe: &Path, study: &Path, out: &Path, o: &SlurmOption
     directive(&mut m, "time", &o.time);
     directive(&mut m, "account", &o.account);
     m.push("set -euo pipefail".into());
-    m.push(format!("exec {} merge {}", quote(&exe.display().to_string()), quote(&out.display().to_string())));
+    m.push(format!(
+        "exec {} merge {}",
+        quote(&exe.display().to_string()),
+        quote(&out.display().to_string())
+    ));
     (a.join("\n") + "\n", m.join("\n") + "\n")
 }
 
 /// Writes the scripts into `OUT/slurm/` (and creates `OUT/slurm/logs/`); returns their paths.
 pub fn write_scripts(out: &Path, array: &str, merge: &str) -> Result<(PathBuf, PathBuf)> {
     let dir = out.join("slurm");
-    std::fs::create_dir_all(dir.join("logs")).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir.join("logs"))
+        .with_context(|| format!("creating {}", dir.display()))?;
     let a = dir.join("array.sbatch");
     let m = dir.join("merge.sbatch");
     std::fs::write(&a, array)?;
@@ -109,7 +130,11 @@ pub fn sbatch(args: &[&str]) -> Result<String> {
         .output()
         .context("running sbatch (is Slurm installed and SLURM_CONF set?)")?;
     if !out.status.success() {
-        bail!("sbatch {} failed: {}", args.join(" "), String::from_utf8_lossy(&out.stderr).trim());
+        bail!(
+            "sbatch {} failed: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
     }
     let text = String::from_utf8_lossy(&out.stdout);
     // --parsable prints "jobid" or "jobid;cluster"
@@ -133,7 +158,13 @@ mod tests {
             samples: Some(30850),
             ..Default::default()
         };
-        let (a, m) = scripts("c60 full", Path::new("/opt/mc-study"), Path::new("/data/my study.yaml"), Path::new("/scratch/out"), &o);
+        let (a, m) = scripts(
+            "c60 full",
+            Path::new("/opt/mc-study"),
+            Path::new("/data/my study.yaml"),
+            Path::new("/scratch/out"),
+            &o,
+        );
         assert!(a.contains("#SBATCH --array=0-7\n"));
         assert!(a.contains("#SBATCH --partition=batch\n#SBATCH --time=01:00:00\n"));
         assert!(a.contains(
