@@ -1,6 +1,6 @@
 //! Validation of a parsed scene into a model: every check names the field and its line.
 
-use super::error::SceneError;
+use super::error::{line, SceneError};
 use super::schema::*;
 use super::units::{Dim, Quantity};
 use super::Scene;
@@ -16,9 +16,6 @@ use serde_saphyr::Spanned;
 
 type R<T> = Result<T, SceneError>;
 
-pub(super) fn line<T>(s: &Spanned<T>) -> Option<u64> {
-    Some(s.referenced.line()).filter(|&l| l > 0)
-}
 
 pub(super) fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = q

@@ -1,6 +1,12 @@
 //! Scene errors name the file, the line and the field.
 
+use serde_saphyr::Spanned;
 use std::fmt;
+
+/// The 1-based source line of a parsed value, if known.
+pub(crate) fn line<T>(s: &Spanned<T>) -> Option<u64> {
+    Some(s.referenced.line()).filter(|&l| l > 0)
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneError {

@@ -10,7 +10,7 @@
 //!   - { name: y, expression: "sin(x1) + 7*sin(x2)^2 + 0.1*x3^4*sin(x1)" }
 //! ```
 
-use super::error::SceneError;
+use super::error::{line, SceneError};
 use super::schema::Name;
 use crate::expr::Expr;
 use serde::Deserialize;
@@ -52,10 +52,6 @@ pub struct FunctionScene {
     /// Values of the inputs before a study overrides them (0).
     pub values: Vec<f64>,
     pub outputs: Vec<FunctionOutput>,
-}
-
-fn line(n: &Name) -> Option<u64> {
-    Some(n.referenced.line()).filter(|&l| l > 0)
 }
 
 impl FunctionScene {

@@ -3,7 +3,7 @@
 //! [`Model`](crate::mechanics::Model) and [`IntegrationParameters`].
 
 mod build;
-mod error;
+pub(crate) mod error;
 pub mod function;
 mod parameter;
 mod probes;

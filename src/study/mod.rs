@@ -17,6 +17,7 @@ pub mod summary;
 
 use crate::scene::schema::{Name, Q};
 use crate::scene::units::Dim;
+use crate::scene::error::line;
 use crate::scene::{apply_integrator, SceneError};
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
@@ -64,10 +65,6 @@ pub struct Study {
     pub parameters: Vec<Parameter>,
     pub outputs: Vec<Output>,
     pub output_dir: PathBuf,
-}
-
-fn line<T>(s: &Spanned<T>) -> Option<u64> {
-    Some(s.referenced.line()).filter(|&l| l > 0)
 }
 
 fn quantity(q: &Q, dim: Option<Dim>, field: &str) -> Result<f64, StudyError> {
