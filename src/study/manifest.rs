@@ -155,17 +155,22 @@ impl Manifest {
     }
 }
 
+/// Opens (creating it if needed) a file used only for its lock.
+pub fn lock_file(p: &Path) -> Result<File> {
+    File::options()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(p)
+        .with_context(|| format!("creating the lock file {}", p.display()))
+}
+
 /// Holds `OUT/.lock` exclusively while alive.
 pub struct DirLock(File);
 
 impl DirLock {
     pub fn acquire(out: &Path) -> Result<DirLock> {
-        let f = File::options()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(out.join(".lock"))
-            .with_context(|| format!("creating the lock file in {}", out.display()))?;
+        let f = lock_file(&out.join(".lock"))?;
         f.lock().context("locking the output directory")?;
         Ok(DirLock(f))
     }

@@ -2,7 +2,7 @@
 //! summary) and `mc-study status` (done / missing / failed per shard).
 
 use super::manifest::{Manifest, Ranges};
-use super::runner::{part_files, Shard};
+use super::runner::{part_files, read_part, Shard};
 use super::store::{self, Row, Table};
 use super::summary::Summary;
 use anyhow::{bail, Result};
@@ -16,13 +16,7 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
     let mut rows: Vec<Row> = Vec::new();
     let mut metadata = HashMap::new();
     for p in part_files(out)? {
-        let t = store::read(&p)?;
-        if t.metadata.get(store::META_HASH) != Some(&manifest.study_hash) {
-            bail!(
-                "{} belongs to another study (its hash differs from manifest.json)",
-                p.display()
-            );
-        }
+        let t = read_part(&p, &manifest.study_hash)?;
         if t.columns != manifest.columns {
             bail!("{} has other columns than manifest.json", p.display());
         }

@@ -3,7 +3,7 @@
 //! run loses at most the rows not yet in a part; a resumed run skips every sample found in
 //! a part, whichever run or shard wrote it.
 
-use super::manifest::{DirLock, Manifest, OutputLimits, Ranges};
+use super::manifest::{lock_file, DirLock, Manifest, OutputLimits, Ranges};
 use super::store::{self, Columns, Row};
 use super::Study;
 use anyhow::{bail, Context, Result};
@@ -112,6 +112,12 @@ pub fn parts_dir(out: &Path) -> PathBuf {
     out.join("parts")
 }
 
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default()
+}
+
 /// Every part file in `OUT/parts`, sorted by name.
 pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
     let dir = parts_dir(out);
@@ -119,10 +125,7 @@ pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
     if dir.exists() {
         for e in std::fs::read_dir(&dir)? {
             let p = e?.path();
-            let name = p
-                .file_name()
-                .map(|n| n.to_string_lossy().to_string())
-                .unwrap_or_default();
+            let name = file_name(&p);
             if name.starts_with("part-") && name.ends_with(".parquet") {
                 v.push(p);
             }
@@ -132,17 +135,23 @@ pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
-/// The sample ids found in the part files (and, per file, the count).
+/// Reads a part file, refusing one written for another study (`hash`).
+pub fn read_part(p: &Path, hash: &str) -> Result<store::Table> {
+    let t = store::read(p)?;
+    if t.metadata.get(store::META_HASH).map(String::as_str) != Some(hash) {
+        bail!(
+            "{} belongs to another study (its hash differs); nothing was overwritten",
+            p.display()
+        );
+    }
+    Ok(t)
+}
+
+/// The sample ids found in the part files.
 fn completed(out: &Path, hash: &str) -> Result<Ranges> {
     let mut all = Ranges::default();
     for p in part_files(out)? {
-        let t = store::read(&p)?;
-        if t.metadata.get(store::META_HASH).map(String::as_str) != Some(hash) {
-            bail!(
-                "{} belongs to another study (its hash differs); nothing was overwritten",
-                p.display()
-            );
-        }
+        let t = read_part(&p, hash)?;
         all = all.union(&Ranges::from_ids(t.rows.iter().map(|r| r.id).collect()));
     }
     Ok(all)
@@ -216,11 +225,7 @@ impl Study {
 /// Claims the shard for this process (two processes never write the same part names).
 fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
     let p = parts_dir(out).join(format!(".shard-{}.lock", shard.label()));
-    let f = File::options()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&p)?;
+    let f = lock_file(&p)?;
     match f.try_lock() {
         Ok(()) => Ok(f),
         Err(std::fs::TryLockError::WouldBlock) => {
@@ -253,10 +258,7 @@ fn prepare(study: &Study, out: &Path, shard: Shard) -> Result<(Ranges, File)> {
     let shard_lock = lock_shard(out, shard)?;
     for e in std::fs::read_dir(parts_dir(out))? {
         let p = e?.path();
-        let name = p
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default();
+        let name = file_name(&p);
         if name.starts_with(&format!(".part-{}-", shard.label())) && name.ends_with(".tmp") {
             std::fs::remove_file(&p)?;
         }
@@ -305,10 +307,7 @@ fn next_seq(out: &Path, shard: Shard) -> Result<u64> {
     let prefix = format!("part-{}-", shard.label());
     let mut next = 0;
     for p in part_files(out)? {
-        let name = p
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default();
+        let name = file_name(&p);
         if let Some(seq) = name
             .strip_prefix(&prefix)
             .and_then(|s| s.strip_suffix(".parquet"))
