@@ -261,9 +261,10 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     );
     let r = runner::run(&study, &opts)?;
     eprintln!(
-        "{} samples run ({} failed), {} already done, in {:.1} s ({:.1} samples/s)",
+        "{} samples run ({} failed) into {} part file(s), {} already done, in {:.1} s ({:.1} samples/s)",
         r.done,
         r.failed,
+        r.parts,
         r.skipped,
         r.wall_seconds,
         r.done as f64 / r.wall_seconds.max(1e-9)
@@ -296,11 +297,6 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     Ok(true)
 }
 
-/// Absolute form of a path that may not exist yet (its parent must).
-fn absolute(p: &Path) -> Result<PathBuf> {
-    Ok(std::path::absolute(p)?)
-}
-
 fn slurm(
     study_path: &Path,
     out: Option<&PathBuf>,
@@ -318,7 +314,7 @@ fn slurm(
     if o.part_rows == Some(0) {
         bail!("--part-rows must be ≥ 1");
     }
-    let out = absolute(out.unwrap_or(&study.output_dir))?;
+    let out = std::path::absolute(out.unwrap_or(&study.output_dir))?;
     if mc_study::study::manifest::path(&out).exists() {
         Manifest::load(&out)?.check_same_study(&study.hash(), &out)?;
     }

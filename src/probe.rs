@@ -127,6 +127,16 @@ struct Progress {
     previous: Option<(f64, f64)>,
 }
 
+impl Progress {
+    /// The window's max, min or mean, if it held a sample.
+    fn reduced(&self, reduce: Reduce) -> Option<f64> {
+        (self.count > 0).then(|| match reduce {
+            Reduce::Mean => self.acc / self.count as f64,
+            _ => self.acc,
+        })
+    }
+}
+
 /// Observes a simulation step by step and produces every probe's value.
 pub struct ProbeRecorder<'a> {
     probes: &'a [Probe],
@@ -239,13 +249,7 @@ impl<'a> ProbeRecorder<'a> {
                 .is_some_and(|t1| t > t1 + half_step);
             let g = &mut self.progress[i];
             if ended {
-                if g.count > 0 {
-                    g.value = Some(if *reduce == Reduce::Mean {
-                        g.acc / g.count as f64
-                    } else {
-                        g.acc
-                    });
-                }
+                g.value = g.reduced(*reduce);
                 continue;
             }
             if !started {
@@ -297,12 +301,8 @@ impl<'a> ProbeRecorder<'a> {
                 ProbeKind::Value { reduce, at, .. } => {
                     if *reduce == Reduce::At && at.is_none() {
                         g.value = g.previous.map(|(_, v)| v);
-                    } else if *reduce != Reduce::At && g.count > 0 {
-                        g.value = Some(if *reduce == Reduce::Mean {
-                            g.acc / g.count as f64
-                        } else {
-                            g.acc
-                        });
+                    } else if *reduce != Reduce::At {
+                        g.value = g.reduced(*reduce);
                     }
                     if g.value.is_none() {
                         return Err(format!(

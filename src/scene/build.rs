@@ -16,7 +16,6 @@ use serde_saphyr::Spanned;
 
 type R<T> = Result<T, SceneError>;
 
-
 pub(super) fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = q
         .value

@@ -112,21 +112,17 @@ impl Scene {
     pub fn set_parameter(&mut self, path: &str, value: f64) -> Result<(), String> {
         let target = self.resolve(path)?;
         let bad = |why: &str| Err(format!("parameter `{path}`: {why}, got {value}"));
-        let ok = match target.dim_and_range().1 {
-            Range::Positive => value > 0.0,
-            Range::NonNegative => value >= 0.0,
-            Range::Unit => (0.0..=1.0).contains(&value),
-            Range::Any => true,
-        };
         if !value.is_finite() {
             return bad("value must be finite");
         }
-        if !ok {
-            return bad(match target.dim_and_range().1 {
-                Range::Positive => "must be > 0",
-                Range::NonNegative => "must be ≥ 0",
-                _ => "must be in [0, 1]",
-            });
+        let outside = match target.dim_and_range().1 {
+            Range::Positive => (value <= 0.0).then_some("must be > 0"),
+            Range::NonNegative => (value < 0.0).then_some("must be ≥ 0"),
+            Range::Unit => (!(0.0..=1.0).contains(&value)).then_some("must be in [0, 1]"),
+            Range::Any => None,
+        };
+        if let Some(why) = outside {
+            return bad(why);
         }
         let m = &mut self.model;
         match target {

@@ -15,9 +15,9 @@ pub mod store;
 pub mod subject;
 pub mod summary;
 
+use crate::scene::error::line;
 use crate::scene::schema::{Name, Q};
 use crate::scene::units::Dim;
-use crate::scene::error::line;
 use crate::scene::{apply_integrator, SceneError};
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
