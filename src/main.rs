@@ -3,6 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use mc_study::integrator::Simulation;
+use mc_study::probe::ProbeRecorder;
 use mc_study::scene::Scene;
 use mc_study::study::manifest::Manifest;
 use mc_study::study::merge::{merge, status};
@@ -127,11 +128,48 @@ enum Command {
         /// Override the scene's duration, in seconds.
         #[arg(long)]
         duration: Option<f64>,
+        /// Set a scene parameter before the run, as a study would: PATH=VALUE, the value in
+        /// SI or with a unit, e.g. `--set joints.J3.clearance=0.1mm`. Repeatable.
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        set: Vec<String>,
     },
 }
 
-fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> Result<()> {
-    let scene = Scene::load(scene_path)?;
+/// Applies `--set PATH=VALUE` overrides: the value is SI or carries a unit of the
+/// parameter's dimension.
+fn apply_overrides(scene: &mut Scene, sets: &[String]) -> Result<()> {
+    for s in sets {
+        let Some((path, value)) = s.split_once('=') else {
+            bail!("--set {s}: expected PATH=VALUE, e.g. joints.J3.clearance=0.1mm");
+        };
+        let path = path.trim();
+        let dim = scene
+            .parameter_dim(path)
+            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
+        let q = mc_study::scene::units::parse_quantity(value)
+            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
+        if let Some(d) = q.dim.filter(|d| *d != dim) {
+            bail!(
+                "--set {s}: `{path}` is {}, but the value's unit is {}",
+                dim.describe(),
+                d.describe()
+            );
+        }
+        scene
+            .set_parameter(path, q.si)
+            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
+    }
+    Ok(())
+}
+
+fn simulate(
+    scene_path: &Path,
+    out: Option<&PathBuf>,
+    duration: Option<f64>,
+    sets: &[String],
+) -> Result<()> {
+    let mut scene = Scene::load(scene_path)?;
+    apply_overrides(&mut scene, sets)?;
     let format = match out.and_then(|p| p.extension()).and_then(|e| e.to_str()) {
         None if out.is_none() => None,
         Some("csv") => Some("csv"),
@@ -149,11 +187,21 @@ fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> 
     let mut sim = Simulation::new(scene.model, scene.params)?;
     let mut traj = Trajectory::for_simulation(&sim);
     traj.record(&sim);
+    let mut probes = ProbeRecorder::new(&scene.probes);
+    probes.observe(&sim);
     let start = Instant::now();
-    let result = sim.run_until(duration, |s, _| {
+    // per-step work, summed: Newton iterations, solver sweeps (last Newton iteration),
+    // activation passes and active contacts
+    let mut work = [0u64; 4];
+    let result = sim.run_until(duration, |s, r| {
         if format.is_some() && s.stats.steps % every as u64 == 0 {
             traj.record(s);
         }
+        probes.observe(s);
+        work[0] += r.newton_iterations as u64;
+        work[1] += r.solver.iterations as u64;
+        work[2] += r.active_set_passes as u64;
+        work[3] += r.active_contacts as u64;
     });
     let wall = start.elapsed();
     let st = sim.stats;
@@ -184,6 +232,14 @@ fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> 
         st.solver_failures, st.max_solver_residual
     );
     println!("newton failures  {} steps", st.newton_failures);
+    let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
+    println!(
+        "work per step    {:.2} Newton iterations, {:.1} solver sweeps, {:.2} activation passes, {:.1} active contacts (means)",
+        per_step(work[0]),
+        per_step(work[1]),
+        per_step(work[2]),
+        per_step(work[3])
+    );
     println!(
         "wall time        {:.3} s ({:.3} µs/step)",
         wall.as_secs_f64(),
@@ -203,6 +259,16 @@ fn simulate(scene_path: &Path, out: Option<&PathBuf>, duration: Option<f64>) -> 
         );
     }
     result?;
+    if !scene.probes.is_empty() {
+        println!("probes");
+        let width = scene.probes.iter().map(|p| p.name.len()).max().unwrap_or(0);
+        for (p, v) in scene.probes.iter().zip(probes.finish_each(sim.state.t)) {
+            match v {
+                Ok(v) => println!("  {:width$}  {v:.9e} {}", p.name, p.unit),
+                Err(e) => println!("  {:width$}  none: {e}", p.name),
+            }
+        }
+    }
     if st.solver_failures > 0 || st.newton_failures > 0 {
         eprintln!(
             "warning: {} step(s) did not converge; see the counts above",
@@ -474,7 +540,8 @@ fn main() -> std::process::ExitCode {
             scene,
             out,
             duration,
-        } => simulate(scene, out.as_ref(), *duration),
+            set,
+        } => simulate(scene, out.as_ref(), *duration, set),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -272,10 +272,17 @@ impl<'a> ProbeRecorder<'a> {
     }
 
     /// The values at the end of the run, or why a probe has none (an event that did not
-    /// happen, an empty window).
-    pub fn finish(mut self, t_end: f64) -> Result<Vec<f64>, String> {
+    /// happen, an empty window): the first such reason fails the sample.
+    pub fn finish(self, t_end: f64) -> Result<Vec<f64>, String> {
+        self.finish_each(t_end).into_iter().collect()
+    }
+
+    /// Each probe's value at the end of the run, or why it has none.
+    pub fn finish_each(mut self, t_end: f64) -> Vec<Result<f64, String>> {
+        let mut out = Vec::with_capacity(self.probes.len());
         for (i, p) in self.probes.iter().enumerate() {
-            if self.progress[i].value.is_some() {
+            if let Some(v) = self.progress[i].value {
+                out.push(Ok(v));
                 continue;
             }
             if let ProbeKind::Value {
@@ -284,39 +291,34 @@ impl<'a> ProbeRecorder<'a> {
             } = p.kind
             {
                 if self.progress[k].value.is_none() {
-                    return Err(format!(
+                    out.push(Err(format!(
                         "probe `{}`: its window ends at event `{}`, which did not happen by t = {t_end} s",
                         p.name, self.probes[k].name
-                    ));
+                    )));
+                    continue;
                 }
             }
             let g = &mut self.progress[i];
-            match &p.kind {
-                ProbeKind::Event { occurrence, .. } => {
-                    return Err(format!(
-                        "probe `{}`: the event happened {} time(s) by t = {t_end} s, occurrence {occurrence} was asked for",
-                        p.name, g.count
-                    ))
-                }
+            out.push(match &p.kind {
+                ProbeKind::Event { occurrence, .. } => Err(format!(
+                    "probe `{}`: the event happened {} time(s) by t = {t_end} s, occurrence {occurrence} was asked for",
+                    p.name, g.count
+                )),
                 ProbeKind::Value { reduce, at, .. } => {
                     if *reduce == Reduce::At && at.is_none() {
                         g.value = g.previous.map(|(_, v)| v);
                     } else if *reduce != Reduce::At {
                         g.value = g.reduced(*reduce);
                     }
-                    if g.value.is_none() {
-                        return Err(format!(
+                    g.value.ok_or_else(|| {
+                        format!(
                             "probe `{}`: its time or window was not reached by t = {t_end} s",
                             p.name
-                        ));
-                    }
+                        )
+                    })
                 }
-            }
+            });
         }
-        Ok(self
-            .progress
-            .iter()
-            .map(|g| g.value.unwrap_or(f64::NAN))
-            .collect())
+        out
     }
 }

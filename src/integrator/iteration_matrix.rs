@@ -3,8 +3,10 @@
 //!
 //! The gyroscopic Jacobian is analytic; the stiffness and damping of the force elements are
 //! central finite differences of each element alone (cheap: an element touches ≤ 2 bodies).
-//! W stays block diagonal, one 6×6 LU per body, unless a force element couples two moving
-//! bodies; then it is factorised densely.
+//! W is block diagonal over the groups of bodies that force elements couple (a spring
+//! between two moving bodies joins their groups): one 6×6 LU per lone body, one dense LU
+//! per coupled group, so a mechanism with a few coupled pairs never pays for a dense
+//! factorisation of the whole system.
 
 use crate::math::skew;
 use crate::mechanics::force::Twist;
@@ -16,14 +18,46 @@ use std::collections::BTreeMap;
 const FD_STEP: f64 = 1e-6;
 
 enum Factor {
-    Blocks(Vec<LU<f64, U6, U6>>),
-    Dense(LU<f64, nalgebra::Dyn, nalgebra::Dyn>),
+    Single(LU<f64, U6, U6>),
+    Coupled(LU<f64, nalgebra::Dyn, nalgebra::Dyn>),
+}
+
+/// Bodies whose block of W is factorised together.
+struct Group {
+    bodies: Vec<usize>,
+    factor: Factor,
 }
 
 pub struct IterationMatrix<'m> {
-    n: usize,
     mask: &'m [bool],
-    factor: Factor,
+    groups: Vec<Group>,
+    /// Group index of each body.
+    group_of: Vec<usize>,
+}
+
+/// Connected components of the bodies under the coupling pairs, each sorted, in order of
+/// their first body.
+fn components(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<Vec<usize>> {
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for (a, b) in pairs {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        if ra != rb {
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    groups.into_values().collect()
 }
 
 impl<'m> IterationMatrix<'m> {
@@ -129,20 +163,42 @@ impl<'m> IterationMatrix<'m> {
         for (i, d) in diag.iter_mut().enumerate() {
             clamp(d, i, i);
         }
-        let factor = if off.is_empty() {
-            Factor::Blocks(diag.into_iter().map(|d| d.lu()).collect())
-        } else {
-            let mut w = DMatrix::zeros(6 * n, 6 * n);
-            for (i, d) in diag.iter().enumerate() {
-                w.fixed_view_mut::<6, 6>(6 * i, 6 * i).copy_from(d);
+        let mut groups = Vec::new();
+        let mut group_of = vec![0; n];
+        for bodies in components(n, off.keys().copied()) {
+            for &b in &bodies {
+                group_of[b] = groups.len();
             }
-            for ((i, j), mut m) in off {
-                clamp(&mut m, i, j);
-                w.fixed_view_mut::<6, 6>(6 * i, 6 * j).copy_from(&m);
-            }
-            Factor::Dense(w.lu())
-        };
-        IterationMatrix { n, mask, factor }
+            let factor = if let [b] = bodies[..] {
+                Factor::Single(diag[b].lu())
+            } else {
+                let k = bodies.len();
+                let mut w = DMatrix::zeros(6 * k, 6 * k);
+                for (gi, &i) in bodies.iter().enumerate() {
+                    for (gj, &j) in bodies.iter().enumerate() {
+                        let block = if i == j {
+                            Some(diag[i])
+                        } else {
+                            off.get(&(i, j)).map(|m| {
+                                let mut m = *m;
+                                clamp(&mut m, i, j);
+                                m
+                            })
+                        };
+                        if let Some(block) = block {
+                            w.fixed_view_mut::<6, 6>(6 * gi, 6 * gj).copy_from(&block);
+                        }
+                    }
+                }
+                Factor::Coupled(w.lu())
+            };
+            groups.push(Group { bodies, factor });
+        }
+        IterationMatrix {
+            mask,
+            groups,
+            group_of,
+        }
     }
 
     /// W⁻¹ rhs (held dofs give zero).
@@ -153,19 +209,29 @@ impl<'m> IterationMatrix<'m> {
                 x[k] = 0.0;
             }
         }
-        match &self.factor {
-            Factor::Blocks(lus) => {
-                for (i, lu) in lus.iter().enumerate() {
+        for g in &self.groups {
+            match &g.factor {
+                Factor::Single(lu) => {
+                    let i = g.bodies[0];
                     let b = x.fixed_rows::<6>(6 * i).into_owned();
                     let s = lu
                         .solve(&b)
                         .unwrap_or_else(|| Twist::from_element(f64::NAN));
                     x.fixed_rows_mut::<6>(6 * i).copy_from(&s);
                 }
-            }
-            Factor::Dense(lu) => {
-                if !lu.solve_mut(&mut x) {
-                    x.fill(f64::NAN);
+                Factor::Coupled(lu) => {
+                    let mut y = DVector::zeros(6 * g.bodies.len());
+                    for (gi, &i) in g.bodies.iter().enumerate() {
+                        y.fixed_rows_mut::<6>(6 * gi)
+                            .copy_from(&x.fixed_rows::<6>(6 * i));
+                    }
+                    if !lu.solve_mut(&mut y) {
+                        y.fill(f64::NAN);
+                    }
+                    for (gi, &i) in g.bodies.iter().enumerate() {
+                        x.fixed_rows_mut::<6>(6 * i)
+                            .copy_from(&y.fixed_rows::<6>(6 * gi));
+                    }
                 }
             }
         }
@@ -187,31 +253,46 @@ impl<'m> IterationMatrix<'m> {
             }
             gt
         };
-        match &self.factor {
-            Factor::Blocks(lus) => blocks
-                .iter()
-                .map(|(b, g)| {
-                    let y = lus[*b]
-                        .solve(&masked(*b, g))
+        let mut out: Vec<(usize, Matrix6x3<f64>)> = Vec::with_capacity(blocks.len());
+        let mut done: Vec<usize> = Vec::with_capacity(2);
+        for &(b, _) in blocks {
+            let gi = self.group_of[b];
+            if done.contains(&gi) {
+                continue;
+            }
+            done.push(gi);
+            let g = &self.groups[gi];
+            match &g.factor {
+                Factor::Single(lu) => {
+                    let mut gt = Matrix6x3::zeros();
+                    for (bb, gb) in blocks.iter().filter(|(bb, _)| *bb == b) {
+                        gt += masked(*bb, gb);
+                    }
+                    let y = lu
+                        .solve(&gt)
                         .unwrap_or_else(|| Matrix6x3::from_element(f64::NAN));
-                    (*b, y)
-                })
-                .collect(),
-            Factor::Dense(lu) => {
-                let mut rhs = DMatrix::zeros(6 * self.n, 3);
-                for (b, g) in blocks {
-                    rhs.fixed_view_mut::<6, 3>(6 * b, 0)
-                        .add_assign(&masked(*b, g));
+                    out.push((b, y));
                 }
-                if !lu.solve_mut(&mut rhs) {
-                    rhs.fill(f64::NAN);
+                Factor::Coupled(lu) => {
+                    let mut rhs = DMatrix::zeros(6 * g.bodies.len(), 3);
+                    for (bb, gb) in blocks {
+                        if let Some(gj) = g.bodies.iter().position(|x| x == bb) {
+                            rhs.fixed_view_mut::<6, 3>(6 * gj, 0)
+                                .add_assign(&masked(*bb, gb));
+                        }
+                    }
+                    if !lu.solve_mut(&mut rhs) {
+                        rhs.fill(f64::NAN);
+                    }
+                    for (gj, &bb) in g.bodies.iter().enumerate() {
+                        if self.mask[6 * bb..6 * bb + 6].iter().any(|&m| m) {
+                            out.push((bb, rhs.fixed_view::<6, 3>(6 * gj, 0).into_owned()));
+                        }
+                    }
                 }
-                (0..self.n)
-                    .filter(|b| self.mask[6 * b..6 * b + 6].iter().any(|&m| m))
-                    .map(|b| (b, rhs.fixed_view::<6, 3>(6 * b, 0).into_owned()))
-                    .collect()
             }
         }
+        out
     }
 }
 

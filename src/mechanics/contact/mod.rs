@@ -43,8 +43,8 @@ pub struct ContactPoint {
 }
 
 impl ContactPair {
-    /// Builds a pair, ordering the shapes so that body 2 carries the plane (or the second
-    /// sphere). Returns an error message for an unsupported combination.
+    /// Builds a pair, ordering the shapes so that body 2 carries the plane, the box met by
+    /// a sphere or point, or the second sphere. Returns an error message for an unsupported combination.
     pub fn new(
         name: impl Into<String>,
         body1: BodyRef,
@@ -54,9 +54,14 @@ impl ContactPair {
         mu: f64,
         e: f64,
     ) -> Result<Self, String> {
-        let (body1, shape1, body2, shape2) = if matches!(shape1, Primitive::Plane { .. })
-            && !matches!(shape2, Primitive::Plane { .. })
-        {
+        let goes_second = |s: &Primitive, other: &Primitive| match s {
+            Primitive::Plane { .. } => !matches!(other, Primitive::Plane { .. }),
+            Primitive::Box { .. } => {
+                matches!(other, Primitive::Sphere { .. } | Primitive::Point { .. })
+            }
+            _ => false,
+        };
+        let (body1, shape1, body2, shape2) = if goes_second(&shape1, &shape2) {
             (body2, shape2, body1, shape1)
         } else {
             (body1, shape1, body2, shape2)
@@ -64,6 +69,10 @@ impl ContactPair {
         let supported = matches!(
             (&shape1, &shape2),
             (Primitive::Sphere { .. }, Primitive::Sphere { .. })
+                | (
+                    Primitive::Sphere { .. } | Primitive::Point { .. },
+                    Primitive::Box { .. }
+                )
                 | (
                     Primitive::Sphere { .. }
                         | Primitive::Box { .. }
@@ -75,7 +84,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere against sphere)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere or point against a box; sphere against sphere)",
                 shape1.kind(),
                 shape2.kind()
             ));
