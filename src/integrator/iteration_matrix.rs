@@ -17,6 +17,9 @@ use std::collections::BTreeMap;
 /// Relative finite-difference step for force-element Jacobians.
 const FD_STEP: f64 = 1e-6;
 
+// Most groups are single bodies: keeping their 6×6 LU inline avoids an allocation per body
+// and Newton iteration.
+#[allow(clippy::large_enum_variant)]
 enum Factor {
     Single(LU<f64, U6, U6>),
     Coupled(LU<f64, nalgebra::Dyn, nalgebra::Dyn>),
