@@ -4,9 +4,10 @@
 //!
 //! Layout (see DESIGN.md §3): [`math`] rotation helpers, [`mechanics`] what the system is,
 //! [`integrator`] how it is integrated, [`solver`] pure numerics, [`scene`] the YAML scene
-//! format, [`probe`] a run's named outputs, [`trajectory`] recorded outputs, [`expr`]
+//! format, [`probe`] a run's named outputs, [`trajectory`] recorded outputs, [`drawing`] SVG views of a mechanism, [`expr`]
 //! closed-form expressions, [`study`] the Monte-Carlo runner, store and statistics.
 
+pub mod drawing;
 pub mod expr;
 pub mod integrator;
 pub mod math;

@@ -2,9 +2,12 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
+use mc_study::drawing::{self, Snapshot, View};
 use mc_study::integrator::Simulation;
 use mc_study::probe::ProbeRecorder;
+use mc_study::scene::units::Dim;
 use mc_study::scene::Scene;
+use mc_study::study::converge::{sweep, Fidelity, Ladder};
 use mc_study::study::manifest::Manifest;
 use mc_study::study::merge::{merge, status};
 use mc_study::study::runner::{self, RunOptions, Shard};
@@ -71,6 +74,33 @@ enum Command {
         #[arg(long)]
         allow_partial: bool,
     },
+    /// Measures the accuracy–cost trade of the study's fidelity: the nominal sample and
+    /// `--samples` design samples run over a ladder (h₀ × 10, 5, 2, 1, ½; solver tolerance
+    /// × 100 and ÷ 100; the other schemes) against a reference at h₀/10. Errors are in
+    /// units of each output's Monte-Carlo σ when a result directory with summary.json is
+    /// found (`--results`, default the study's output directory), else relative. Prints
+    /// the table, writes OUT/converge.csv and recommends the cheapest fidelity under the
+    /// target as a `fidelity` block.
+    Converge {
+        /// Study YAML file.
+        study: PathBuf,
+        /// Where converge.csv goes (default: <study output>/converge).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Design samples besides the nominal one.
+        #[arg(long, default_value_t = 3)]
+        samples: u64,
+        /// Result directory whose summary.json gives the Monte-Carlo σ of each output.
+        #[arg(long)]
+        results: Option<PathBuf>,
+        /// Largest accepted error: a fraction of σ (default 0.01), or of |reference| when
+        /// no σ is known (then default 1e-3).
+        #[arg(long)]
+        target: Option<f64>,
+        /// Step sizes to try instead of the default ladder, e.g. `1e-4,5e-5,2e-5`.
+        #[arg(long, value_delimiter = ',')]
+        h: Vec<f64>,
+    },
     /// Tells which shards of OUT are complete, partial or missing, with failures, and the
     /// `--array=` list to resubmit.
     Status {
@@ -132,6 +162,17 @@ enum Command {
         /// SI or with a unit, e.g. `--set joints.J3.clearance=0.1mm`. Repeatable.
         #[arg(long = "set", value_name = "PATH=VALUE")]
         set: Vec<String>,
+        /// Draw the mechanism at the `--snapshots` times, side by side, into this SVG file
+        /// (bodies as their inertia boxes, contact shapes, bores and journals; mm).
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Times of the drawn configurations, comma-separated, e.g. `2ms,8ms` (default:
+        /// the start and the end of the run).
+        #[arg(long, value_delimiter = ',')]
+        snapshots: Vec<String>,
+        /// Projection plane of the drawing: xy (default), xz or yz.
+        #[arg(long, default_value = "xy")]
+        view: String,
     },
 }
 
@@ -162,12 +203,65 @@ fn apply_overrides(scene: &mut Scene, sets: &[String]) -> Result<()> {
     Ok(())
 }
 
-fn simulate(
-    scene_path: &Path,
-    out: Option<&PathBuf>,
+/// What `simulate` draws: an SVG file, its snapshot times (s) and the view.
+struct DrawingRequest {
+    path: PathBuf,
+    times: Vec<f64>,
+    view: View,
+}
+
+fn drawing_request(
+    svg: Option<&PathBuf>,
+    snapshots: &[String],
+    view: &str,
+    duration: f64,
+) -> Result<Option<DrawingRequest>> {
+    let Some(path) = svg else {
+        if !snapshots.is_empty() {
+            bail!("--snapshots needs --svg FILE");
+        }
+        return Ok(None);
+    };
+    let view = View::parse(view)
+        .ok_or_else(|| anyhow::anyhow!("--view must be xy, xz or yz, got `{view}`"))?;
+    let mut times = Vec::new();
+    for s in snapshots {
+        let q = mc_study::scene::units::parse_quantity(s)
+            .map_err(|e| anyhow::anyhow!("--snapshots {s}: {e}"))?;
+        if q.dim.is_some_and(|d| d != Dim::TIME) || !(0.0..=duration).contains(&q.si) {
+            bail!("--snapshots {s}: expected a time between 0 and the duration ({duration} s)");
+        }
+        times.push(q.si);
+    }
+    if times.is_empty() {
+        times = vec![0.0, duration];
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(Some(DrawingRequest {
+        path: path.clone(),
+        times,
+        view,
+    }))
+}
+
+struct SimulateArgs<'a> {
+    scene: &'a Path,
+    out: Option<&'a PathBuf>,
     duration: Option<f64>,
-    sets: &[String],
-) -> Result<()> {
+    sets: &'a [String],
+    svg: Option<&'a PathBuf>,
+    snapshots: &'a [String],
+    view: &'a str,
+}
+
+fn simulate(args: SimulateArgs) -> Result<()> {
+    let SimulateArgs {
+        scene: scene_path,
+        out,
+        duration,
+        sets,
+        ..
+    } = args;
     let mut scene = Scene::load(scene_path)?;
     apply_overrides(&mut scene, sets)?;
     let format = match out.and_then(|p| p.extension()).and_then(|e| e.to_str()) {
@@ -183,8 +277,26 @@ fn simulate(
         Some(d) => d,
         None => scene.duration,
     };
+    let drawing = drawing_request(args.svg, args.snapshots, args.view, duration)?;
     let every = scene.record_every;
+    let model = scene.model.clone();
+    let mut snapshots: Vec<Snapshot> = Vec::new();
     let mut sim = Simulation::new(scene.model, scene.params)?;
+    let h = sim.params.h;
+    let mut take_snapshots = |s: &Simulation| {
+        if let Some(d) = &drawing {
+            while let Some(&t) = d.times.get(snapshots.len()) {
+                if s.state.t < t - 0.5 * h {
+                    break;
+                }
+                snapshots.push(Snapshot {
+                    t: s.state.t,
+                    poses: s.state.poses.clone(),
+                });
+            }
+        }
+    };
+    take_snapshots(&sim);
     let mut traj = Trajectory::for_simulation(&sim);
     traj.record(&sim);
     let mut probes = ProbeRecorder::new(&scene.probes);
@@ -198,6 +310,7 @@ fn simulate(
             traj.record(s);
         }
         probes.observe(s);
+        take_snapshots(s);
         work[0] += r.newton_iterations as u64;
         work[1] += r.solver.iterations as u64;
         work[2] += r.active_set_passes as u64;
@@ -258,6 +371,20 @@ fn simulate(
             path.display()
         );
     }
+    if let Some(d) = &drawing {
+        let title = scene_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let title = format!("{} ({})", scene.name, title);
+        std::fs::write(&d.path, drawing::svg(&model, &snapshots, d.view, &title))
+            .with_context(|| format!("writing {}", d.path.display()))?;
+        println!(
+            "drawing          {} snapshot(s) → {}",
+            snapshots.len(),
+            d.path.display()
+        );
+    }
     result?;
     if !scene.probes.is_empty() {
         println!("probes");
@@ -274,6 +401,108 @@ fn simulate(
             "warning: {} step(s) did not converge; see the counts above",
             st.solver_failures + st.newton_failures
         );
+    }
+    Ok(())
+}
+
+/// The Monte-Carlo σ of each output from `dir/summary.json` (None if absent).
+fn sigma_from(dir: &Path, outputs: &[String]) -> Result<Option<Vec<f64>>> {
+    let path = dir.join("summary.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(None);
+    };
+    let json: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+    let sd_of = |name: &str| {
+        json["outputs"]
+            .as_array()?
+            .iter()
+            .find(|o| o["name"] == name)?["sd"]
+            .as_f64()
+            .filter(|s| *s > 0.0)
+    };
+    let sigma: Option<Vec<f64>> = outputs.iter().map(|o| sd_of(o)).collect();
+    if sigma.is_none() {
+        eprintln!(
+            "note: {} lacks a positive σ for some output; errors are relative instead",
+            path.display()
+        );
+    }
+    Ok(sigma)
+}
+
+fn converge(
+    study_path: &Path,
+    out: Option<&PathBuf>,
+    samples: u64,
+    results: Option<&PathBuf>,
+    target: Option<f64>,
+    hs: &[f64],
+) -> Result<()> {
+    let study = Study::load(study_path, None)?;
+    let mc_study::study::subject::Subject::Mechanism(scene) = &study.subject else {
+        bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
+    };
+    let base = Fidelity::of(&scene.params);
+    let mut ladder = Ladder::around(&base, samples);
+    if !hs.is_empty() {
+        if let Some(h) = hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
+            bail!("--h: step sizes must be positive, got {h}");
+        }
+        ladder.fidelities = hs.iter().map(|&h| Fidelity { h, ..base.clone() }).collect();
+        let finest = hs.iter().copied().fold(f64::INFINITY, f64::min);
+        ladder.reference.h = ladder.reference.h.min(finest / 2.0);
+    }
+    let results_dir = results.cloned().unwrap_or_else(|| study.output_dir.clone());
+    let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
+    let sigma = sigma_from(&results_dir, &names)?;
+    let target = target.unwrap_or(if sigma.is_some() { 0.01 } else { 1e-3 });
+    if !(target > 0.0) {
+        bail!("--target must be positive, got {target}");
+    }
+    match &sigma {
+        Some(_) => eprintln!(
+            "σ from {}; target: error < {target} σ",
+            results_dir.join("summary.json").display()
+        ),
+        None => eprintln!(
+            "no summary.json in {}: errors relative to the reference; target {target}",
+            results_dir.display()
+        ),
+    }
+    let total = (ladder.fidelities.len() + 1) as u64 * (1 + samples.min(study.runs()));
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} runs  {msg}")
+            .expect("template"),
+    );
+    let conv = sweep(&study, &ladder, sigma, |f, sample, run| {
+        bar.inc(1);
+        bar.set_message(format!("{} {sample}: {:.0} ms", f.label(), run.wall_ms));
+        if let Some(e) = &run.error {
+            bar.println(format!("{} {sample}: failed: {e}", f.label()));
+        }
+    })
+    .map_err(anyhow::Error::msg)?;
+    bar.finish_and_clear();
+    print!("{}", conv.table());
+    let dir = out
+        .cloned()
+        .unwrap_or_else(|| study.output_dir.join("converge"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let csv = dir.join("converge.csv");
+    std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
+    eprintln!("runs: {}", csv.display());
+    match conv.recommend(target) {
+        Some(f) => {
+            println!(
+                "cheapest fidelity with every error below {target}{}: {:.1} ms per sample",
+                if conv.sigma.is_some() { " σ" } else { "" },
+                conv.cost(f)
+            );
+            print!("{}", conv.fidelities[f].yaml());
+        }
+        None => println!("no fidelity of the ladder meets the target {target}; refine h"),
     }
     Ok(())
 }
@@ -509,6 +738,14 @@ fn main() -> std::process::ExitCode {
             }
         }),
         Command::Status { out, shards } => print_status(out, *shards),
+        Command::Converge {
+            study,
+            out,
+            samples,
+            results,
+            target,
+            h,
+        } => converge(study, out.as_ref(), *samples, results.as_ref(), *target, h),
         Command::Slurm {
             study,
             tasks,
@@ -541,7 +778,18 @@ fn main() -> std::process::ExitCode {
             out,
             duration,
             set,
-        } => simulate(scene, out.as_ref(), *duration, set),
+            svg,
+            snapshots,
+            view,
+        } => simulate(SimulateArgs {
+            scene,
+            out: out.as_ref(),
+            duration: *duration,
+            sets: set,
+            svg: svg.as_ref(),
+            snapshots,
+            view,
+        }),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

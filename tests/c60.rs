@@ -108,7 +108,10 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
         fcs.map(|fc| (output(&o, &names, fc) / output(&ideal, &names, fc) - 1.0).abs())
     };
     let (coarse, fine) = (error_at(1e-5), error_at(1e-6));
-    assert!(coarse[0] < 1e-2 && fine[0] < 1e-2, "FC-1: {coarse:?} {fine:?}");
+    assert!(
+        coarse[0] < 1e-2 && fine[0] < 1e-2,
+        "FC-1: {coarse:?} {fine:?}"
+    );
     for (k, fc) in fcs.iter().enumerate().skip(1) {
         assert!(
             fine[k] < 1e-3 || fine[k] < coarse[k] / 5.0,

@@ -39,6 +39,12 @@ fn positive(q: &Q, dim: Dim, field: &str) -> R<f64> {
     Ok(v)
 }
 
+/// An optional preload ramp time (≥ 0; default 0, no ramp).
+fn ramp(q: &Option<Q>, field: &str) -> R<f64> {
+    q.as_ref()
+        .map_or(Ok(0.0), |q| non_negative(q, Dim::TIME, field))
+}
+
 fn non_negative(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = scalar(q, dim, field)?;
     if v < 0.0 {
@@ -421,13 +427,14 @@ fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
                     non_negative(q, Dim::LENGTH, &f("spring.rest_length"))
                 })?,
                 preload: opt(&s.preload, Dim::FORCE, "spring.preload")?,
+                ramp: ramp(&s.ramp, &f("spring.ramp"))?,
             })
         }
         ForceSpec::TorsionalSpring(s) => {
             let a = body_ref(model, &s.body_a, &f("torsional_spring.body_a"))?;
             let b = body_ref(model, &s.body_b, &f("torsional_spring.body_b"))?;
             let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
-            Force::Torsional(TorsionalSpring::new(
+            let mut spring = TorsionalSpring::new(
                 a,
                 b,
                 unit_vec3(&s.axis, &f("torsional_spring.axis"))?,
@@ -438,7 +445,9 @@ fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
                 })?,
                 opt(&s.preload, Dim::TORQUE, "torsional_spring.preload")?,
                 opt(&s.rest_angle, Dim::NONE, "torsional_spring.rest_angle")?,
-            ))
+            );
+            spring.ramp = ramp(&s.ramp, &f("torsional_spring.ramp"))?;
+            Force::Torsional(spring)
         }
         ForceSpec::Load(l) => {
             let body = body_ref(model, &l.body, &f("load.body"))?.ok_or_else(|| {

@@ -226,6 +226,8 @@ pub struct SpringSpec {
     /// Default: the initial distance.
     pub rest_length: Option<Q>,
     pub preload: Option<Q>,
+    /// The preload rises linearly from zero over this time (default: applied at once).
+    pub ramp: Option<Q>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -239,6 +241,8 @@ pub struct TorsionalSpec {
     pub damping: Option<Q>,
     pub preload: Option<Q>,
     pub rest_angle: Option<Q>,
+    /// The preload rises linearly from zero over this time (default: applied at once).
+    pub ramp: Option<Q>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -2,6 +2,7 @@
 //! limits, fidelity), the sampled inputs of each run, the parallel runner and its Parquet
 //! store, merging, and the summary statistics. See DESIGN.md §5.
 
+pub mod converge;
 pub mod design;
 pub mod distribution;
 pub mod manifest;

@@ -1,0 +1,295 @@
+//! `mc-study converge`: the accuracy–cost trade of a study's fidelity. The nominal sample
+//! (the scene as written) and K samples of the study's design run over a ladder of
+//! fidelities (step sizes, solver tolerances, schemes); every output is compared with a
+//! reference run at the finest setting, and the error is set against the output's
+//! Monte-Carlo σ when a result directory gives it. The cheapest fidelity whose error on
+//! every output stays below the target is recommended as a study `fidelity` block.
+
+use super::subject::Subject;
+use super::Study;
+use crate::integrator::{IntegrationParameters, Scheme};
+use std::fmt::Write;
+
+/// One rung of the ladder.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fidelity {
+    pub h: f64,
+    pub scheme: Scheme,
+    pub solver_tolerance: f64,
+}
+
+impl Fidelity {
+    pub fn of(p: &IntegrationParameters) -> Fidelity {
+        Fidelity {
+            h: p.h,
+            scheme: p.scheme,
+            solver_tolerance: p.solver.tolerance,
+        }
+    }
+
+    fn apply(&self, p: &mut IntegrationParameters) {
+        p.h = self.h;
+        p.scheme = self.scheme;
+        p.solver.tolerance = self.solver_tolerance;
+    }
+
+    pub fn label(&self) -> String {
+        format!(
+            "h={:e} {} tol={:e}",
+            self.h,
+            self.scheme.name(),
+            self.solver_tolerance
+        )
+    }
+
+    /// The study YAML block selecting this fidelity.
+    pub fn yaml(&self) -> String {
+        format!(
+            "fidelity:\n  h: {:e}\n  scheme: {}\n  solver: {{ tolerance: {:e} }}\n",
+            self.h,
+            self.scheme.name(),
+            self.solver_tolerance
+        )
+    }
+}
+
+/// What to sweep.
+#[derive(Clone, Debug)]
+pub struct Ladder {
+    pub fidelities: Vec<Fidelity>,
+    pub reference: Fidelity,
+    /// Design samples besides the nominal one.
+    pub samples: u64,
+}
+
+impl Ladder {
+    /// The default ladder around the study's fidelity (h₀, scheme, tolerance τ₀): h₀ × {10,
+    /// 5, 2, 1, ½} at τ₀; τ₀ × 100 and τ₀ / 100 at h₀; the other schemes at h₀. The
+    /// reference is h₀ / 10 at min(τ₀ / 100, 1e-8).
+    pub fn around(base: &Fidelity, samples: u64) -> Ladder {
+        let mut fidelities: Vec<Fidelity> = [10.0, 5.0, 2.0, 1.0, 0.5]
+            .iter()
+            .map(|k| Fidelity {
+                h: base.h * k,
+                ..base.clone()
+            })
+            .collect();
+        for tol in [base.solver_tolerance * 100.0, base.solver_tolerance / 100.0] {
+            fidelities.push(Fidelity {
+                solver_tolerance: tol,
+                ..base.clone()
+            });
+        }
+        for scheme in [
+            Scheme::MoreauJean,
+            Scheme::CombinedProjection,
+            Scheme::DirectProjection,
+        ] {
+            if scheme != base.scheme {
+                fidelities.push(Fidelity {
+                    scheme,
+                    ..base.clone()
+                });
+            }
+        }
+        Ladder {
+            fidelities,
+            reference: Fidelity {
+                h: base.h / 10.0,
+                solver_tolerance: (base.solver_tolerance / 100.0).min(1e-8),
+                ..base.clone()
+            },
+            samples,
+        }
+    }
+}
+
+/// One run: outputs (NaN where failed), wall time and the failure, if any.
+#[derive(Clone, Debug)]
+pub struct Run {
+    pub outputs: Vec<f64>,
+    pub wall_ms: f64,
+    pub error: Option<String>,
+}
+
+/// Every run of the sweep. `runs[f][s]`: fidelity f (the reference last), sample s (the
+/// nominal first).
+#[derive(Clone, Debug)]
+pub struct Convergence {
+    pub outputs: Vec<(String, String)>,
+    pub fidelities: Vec<Fidelity>,
+    pub sample_names: Vec<String>,
+    pub runs: Vec<Vec<Run>>,
+    /// Monte-Carlo σ per output, if known.
+    pub sigma: Option<Vec<f64>>,
+}
+
+/// Runs the ladder; `progress` is told each finished run.
+pub fn sweep(
+    study: &Study,
+    ladder: &Ladder,
+    sigma: Option<Vec<f64>>,
+    mut progress: impl FnMut(&Fidelity, &str, &Run),
+) -> Result<Convergence, String> {
+    let Subject::Mechanism(scene) = &study.subject else {
+        return Err("converge needs a mechanism scene: a function scene has no fidelity".into());
+    };
+    let selected: Vec<usize> = study.outputs.iter().map(|o| o.index).collect();
+    let mut samples: Vec<(String, Vec<(&str, f64)>)> = vec![("nominal".into(), Vec::new())];
+    for i in 0..ladder.samples.min(study.runs()) {
+        let x = study.inputs(i);
+        let params = study
+            .parameters
+            .iter()
+            .map(|p| p.path.as_str())
+            .zip(x)
+            .collect();
+        samples.push((format!("sample {i}"), params));
+    }
+    let mut fidelities = ladder.fidelities.clone();
+    fidelities.push(ladder.reference.clone());
+    let mut runs = Vec::new();
+    for f in &fidelities {
+        let mut s = (**scene).clone();
+        f.apply(&mut s.params);
+        let subject = Subject::Mechanism(Box::new(s));
+        let row: Vec<Run> = samples
+            .iter()
+            .map(|(name, params)| {
+                let o = subject.run(params, &selected);
+                let run = Run {
+                    outputs: o.outputs,
+                    wall_ms: o.diagnostics.wall_ms,
+                    error: o.error,
+                };
+                progress(f, name, &run);
+                run
+            })
+            .collect();
+        runs.push(row);
+    }
+    Ok(Convergence {
+        outputs: study
+            .outputs
+            .iter()
+            .map(|o| (o.name.clone(), o.unit.clone()))
+            .collect(),
+        fidelities,
+        sample_names: samples.into_iter().map(|(n, _)| n).collect(),
+        runs,
+        sigma,
+    })
+}
+
+impl Convergence {
+    fn reference(&self) -> &[Run] {
+        self.runs.last().expect("the reference row")
+    }
+
+    /// Largest error of output k at fidelity f over the samples: in units of the
+    /// Monte-Carlo σ when known, else relative to |reference|. Infinite if a run failed.
+    pub fn error(&self, f: usize, k: usize) -> f64 {
+        self.runs[f]
+            .iter()
+            .zip(self.reference())
+            .map(|(r, reference)| {
+                let (y, y0) = (r.outputs[k], reference.outputs[k]);
+                if r.error.is_some() || reference.error.is_some() {
+                    return f64::INFINITY;
+                }
+                let scale = match &self.sigma {
+                    Some(s) => s[k],
+                    None => y0.abs(),
+                };
+                (y - y0).abs() / scale
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Median wall time per sample (ms) at fidelity f.
+    pub fn cost(&self, f: usize) -> f64 {
+        let mut w: Vec<f64> = self.runs[f].iter().map(|r| r.wall_ms).collect();
+        w.sort_by(f64::total_cmp);
+        w[w.len() / 2]
+    }
+
+    /// The cheapest fidelity (not the reference) whose every error is below `target`.
+    pub fn recommend(&self, target: f64) -> Option<usize> {
+        (0..self.fidelities.len() - 1)
+            .filter(|&f| (0..self.outputs.len()).all(|k| self.error(f, k) < target))
+            .min_by(|&a, &b| self.cost(a).total_cmp(&self.cost(b)))
+    }
+
+    /// The printed table: one row per fidelity, its cost and each output's error.
+    pub fn table(&self) -> String {
+        let unit = if self.sigma.is_some() {
+            "error / Monte-Carlo σ (max over samples)"
+        } else {
+            "relative error (max over samples)"
+        };
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "{unit}; reference: {}",
+            self.fidelities.last().unwrap().label()
+        );
+        let _ = write!(s, "{:<46} {:>10}", "fidelity", "ms/sample");
+        for (name, _) in &self.outputs {
+            let _ = write!(s, " {:>12}", short(name));
+        }
+        s.push('\n');
+        for f in 0..self.fidelities.len() {
+            let _ = write!(
+                s,
+                "{:<46} {:>10.1}",
+                self.fidelities[f].label(),
+                self.cost(f)
+            );
+            for k in 0..self.outputs.len() {
+                if f + 1 == self.fidelities.len() {
+                    let _ = write!(s, " {:>12}", "ref");
+                } else {
+                    let _ = write!(s, " {:>12.2e}", self.error(f, k));
+                }
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
+    pub fn csv(&self) -> String {
+        let mut s = String::from(
+            "h,scheme,solver_tolerance,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+        );
+        let reference = self.reference();
+        for (f, fid) in self.fidelities.iter().enumerate() {
+            for (j, run) in self.runs[f].iter().enumerate() {
+                for (k, (name, unit)) in self.outputs.iter().enumerate() {
+                    let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
+                    let _ = writeln!(
+                        s,
+                        "{:e},{},{:e},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        fid.h,
+                        fid.scheme.name(),
+                        fid.solver_tolerance,
+                        self.sample_names[j],
+                        name,
+                        unit,
+                        y,
+                        y0,
+                        (y - y0).abs(),
+                        run.wall_ms,
+                        run.error.as_deref().unwrap_or("").replace([',', '\n'], ";")
+                    );
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Column heading: an output name cut to 12 characters.
+fn short(name: &str) -> String {
+    name.chars().take(12).collect()
+}
