@@ -80,9 +80,9 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
 /// FC-2…FC-6 tends to that of the ideal-joint mechanism at first order in the clearance:
 /// from c = 10 µm to 1 µm each error falls at least fivefold or is already below 1e-3, and
 /// at 1 µm every error is below 3e-3 (FC-4, the needle seat, amplifies the clearance
-/// most). The contact force FC-1 agrees to 1 %: with frictionless micrometre clearances
-/// the journals chatter in their bores and the force, averaged over 0.5 ms, keeps a
-/// ±0.4 % scatter (README, open item). At the nominal 0.07 mm FC-1 and FC-4 differ by
+/// most). The contact force FC-1 agrees to 1 % (3.6e-3 at 1 µm): with frictionless
+/// micrometre clearances the journals chatter in their bores and the force keeps a ±0.4 %
+/// scatter (README, open item). At the nominal 0.07 mm FC-1 and FC-4 differ by
 /// percents: the comparison resolves the clearance effect it checks.
 #[test]
 fn vanishing_clearances_give_the_ideal_mechanism() {
@@ -126,17 +126,17 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
 }
 
 /// The study's distribution is normal(0.07 mm, 0.0175 mm): every joint at mean + 3σ and
-/// every joint at mean − 3σ both run through without penetration. At 17.5 µm a few steps
-/// (5 of 800) stop above the solver tolerance (residual ≤ 1.5e-4): counted in the
-/// diagnostics, bounded here, an open item of the clearance joint at small clearances.
+/// every joint at mean − 3σ both run through without penetration. A step may stop just
+/// above the solver tolerance (1 of 700 at 0.1225 mm, residual 1.3e-6): counted in the
+/// diagnostics and bounded here.
 #[test]
 fn three_sigma_clearances_run_through() {
     let clearance = subject(&scene_text());
     for c in [0.07e-3 + 3.0 * 0.0175e-3, 0.07e-3 - 3.0 * 0.0175e-3] {
         let (o, names) = run(&clearance, &every_joint("clearance", c));
         assert_eq!(o.error, None, "c = {c}");
-        assert!(o.diagnostics.nonconverged_steps <= 8, "c = {c}");
-        assert!(o.diagnostics.max_solver_residual < 1e-3, "c = {c}");
+        assert!(o.diagnostics.nonconverged_steps <= 2, "c = {c}");
+        assert!(o.diagnostics.max_solver_residual < 1e-5, "c = {c}");
         assert!(o.diagnostics.max_penetration <= 2e-10, "c = {c}");
         let fc1 = output(&o, &names, "FC1_contact_force");
         assert!((fc1 / 13.7 - 1.0).abs() < 0.1, "c = {c}: FC-1 = {fc1}");

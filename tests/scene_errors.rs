@@ -190,6 +190,57 @@ mod cli {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// `--set` overrides a parameter as a study would (the probes change accordingly), a
+    /// wrong path or unit is refused naming it, and `--svg` draws one panel per snapshot.
+    #[test]
+    fn simulate_sets_parameters_prints_probes_and_draws() {
+        let dir = std::env::temp_dir().join(format!("mc-study-draw-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let svg = dir.join("ball.svg");
+        let o = mc_study(&[
+            "simulate",
+            "studies/bouncing-ball/scene.yaml",
+            "--duration",
+            "1",
+            "--set",
+            "bodies.ball.position.z=2.1 m",
+            "--svg",
+            svg.to_str().unwrap(),
+            "--snapshots",
+            "0s,200ms,1s",
+        ]);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{stdout}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        // dropped from 2.1 m (gap 2 m) the first impact comes at sqrt(2·2/9.81) = 0.6386 s
+        let line = stdout
+            .lines()
+            .find(|l| l.contains("first_impact_time"))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        let t: f64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+        assert!((t - (4.0f64 / 9.81).sqrt()).abs() < 2e-3, "{line}");
+        let drawing = std::fs::read_to_string(&svg).unwrap();
+        assert!(drawing.starts_with("<svg") && drawing.trim_end().ends_with("</svg>"));
+        for panel in ["t = 0.000 ms", "t = 200.000 ms", "t = 1000.000 ms"] {
+            assert!(drawing.contains(panel), "no panel `{panel}`");
+        }
+        // the ball's contact sphere (r = 0.1 m = 100 mm) is drawn in each panel
+        assert_eq!(drawing.matches(r#"r="100.0000""#).count(), 3, "{drawing}");
+        for (set, expect) in [
+            ("bodies.nope.mass=1", "nope"),
+            ("bodies.ball.mass=3 mm", "a mass"),
+            ("bodies.ball.mass", "PATH=VALUE"),
+        ] {
+            let o = mc_study(&["simulate", "studies/bouncing-ball/scene.yaml", "--set", set]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success() && err.contains(expect), "{set}: {err}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     #[test]
     fn bad_scene_exits_nonzero_with_the_field_and_line() {
         let dir = std::env::temp_dir().join(format!("mc-study-bad-{}", std::process::id()));

@@ -1,0 +1,60 @@
+//! `mc-study converge` on the bouncing-ball study, whose first impact time is known in
+//! closed form: the ladder's errors fall with the step size, the reference is the finest
+//! run, and the recommendation is the cheapest rung under the target.
+
+use mc_study::study::converge::{sweep, Fidelity, Ladder};
+use mc_study::study::subject::Subject;
+use mc_study::study::Study;
+use std::path::Path;
+
+#[test]
+fn step_size_ladder_converges_on_the_bouncing_ball() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/bouncing-ball/study.yaml");
+    let study = Study::load(&path, None).unwrap();
+    let Subject::Mechanism(scene) = &study.subject else {
+        panic!("a mechanism")
+    };
+    let base = Fidelity::of(&scene.params);
+    assert_eq!(base.h, 1e-4);
+    let mut ladder = Ladder::around(&base, 2);
+    // step sizes only, coarse to fine: 1e-3, 5e-4, 2e-4, 1e-4, 5e-5
+    ladder.fidelities.truncate(5);
+    let mut runs = 0;
+    let conv = sweep(&study, &ladder, None, |_, _, _| runs += 1).unwrap();
+    assert_eq!(runs, 6 * 3, "5 rungs + the reference, 3 samples each");
+    assert_eq!(conv.sample_names, ["nominal", "sample 0", "sample 1"]);
+    assert_eq!(conv.fidelities.last().unwrap().h, 1e-5);
+    let k = conv
+        .outputs
+        .iter()
+        .position(|(n, _)| n == "first_impact_time")
+        .unwrap();
+    // the reference impact time of the nominal drop (1 m centre, 0.1 m radius): the
+    // closed form sqrt(2 · 0.9 / 9.81) within one reference step
+    let t_ref = conv.runs.last().unwrap()[0].outputs[k];
+    assert!((t_ref - (1.8f64 / 9.81).sqrt()).abs() <= 1e-5, "{t_ref}");
+    // the impact is found within two steps (the activation forecast may close it a step
+    // early or late), so the relative error is below 2h / t and falls with h (a wrong
+    // reference or a mixed-up ladder would break either)
+    let errors: Vec<f64> = (0..5).map(|f| conv.error(f, k)).collect();
+    for (f, e) in errors.iter().enumerate() {
+        let h = conv.fidelities[f].h;
+        assert!(*e <= (2.0 * h + 1e-5) / 0.4, "h = {h}: relative error {e}");
+    }
+    assert!(errors[0] > 10.0 * errors[4], "{errors:?}");
+    // the recommendation: the cheapest rung whose every output is within the target
+    let target = 2e-3;
+    let f = conv.recommend(target).expect("a rung meets 2e-3");
+    for k in 0..conv.outputs.len() {
+        assert!(conv.error(f, k) < target);
+    }
+    for g in 0..5 {
+        if (0..conv.outputs.len()).all(|k| conv.error(g, k) < target) {
+            assert!(conv.cost(f) <= conv.cost(g));
+        }
+    }
+    assert!(conv.fidelities[f].yaml().contains("h: "));
+    // the CSV: a header and one line per run and output
+    let csv = conv.csv();
+    assert_eq!(csv.lines().count(), 1 + 6 * 3 * conv.outputs.len());
+}
