@@ -457,7 +457,7 @@ fn converge(
     let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
     let sigma = sigma_from(&results_dir, &names)?;
     let target = target.unwrap_or(if sigma.is_some() { 0.01 } else { 1e-3 });
-    if !(target > 0.0) {
+    if target.is_nan() || target <= 0.0 {
         bail!("--target must be positive, got {target}");
     }
     match &sigma {
