@@ -101,6 +101,12 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         h: Vec<f64>,
     },
+    /// Writes OUT/report/report.html: one self-contained page (figures inlined as SVG, no
+    /// network) with the summary, histograms with the fitted normal and ±3σ, empirical
+    /// CDFs, scatter plots against every input, SRC/SRRC (and Sobol' indices with
+    /// bootstrap intervals for `design: saltelli`), running statistics and run health;
+    /// each figure also as SVG and PNG in OUT/report/figures/.
+    Report { out: PathBuf },
     /// Tells which shards of OUT are complete, partial or missing, with failures, and the
     /// `--array=` list to resubmit.
     Status {
@@ -738,6 +744,14 @@ fn main() -> std::process::ExitCode {
             }
         }),
         Command::Status { out, shards } => print_status(out, *shards),
+        Command::Report { out } => mc_study::report::build(out).map(|r| {
+            println!(
+                "report: {} ({} figures, each also as .svg and .png in {})",
+                r.html.display(),
+                r.figures.len(),
+                r.html.with_file_name("figures").display()
+            );
+        }),
         Command::Converge {
             study,
             out,

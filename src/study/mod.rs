@@ -9,6 +9,7 @@ pub mod manifest;
 pub mod merge;
 pub mod runner;
 mod schema;
+pub mod sensitivity;
 pub mod slurm;
 pub mod sobol;
 pub mod statistics;

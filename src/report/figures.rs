@@ -1,0 +1,613 @@
+//! The report's figures, drawn with plotters into an SVG (inlined in the HTML page) and a
+//! PNG each. The PNG backend renders text with DejaVu Sans embedded in the binary, so a
+//! machine without system fonts draws readable axes; the SVG leaves text to the browser.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+const SIZE: (u32, u32) = (720, 440);
+const FONT: &str = "sans-serif";
+const BLUE: RGBColor = RGBColor(43, 76, 126);
+const ORANGE: RGBColor = RGBColor(221, 132, 82);
+const GREY: RGBColor = RGBColor(120, 120, 120);
+
+/// Registers the embedded font for the bitmap backend (once per process).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+        if plotters::style::register_font(FONT, FontStyle::Normal, bytes).is_err() {
+            eprintln!("warning: the embedded font did not load; PNG figures will lack text");
+        }
+    });
+}
+
+/// A quantity's display scale: values in SI times `factor` are shown in `unit`, so that
+/// axes read "mm" and "ms" rather than 1e-3 m.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scale {
+    pub factor: f64,
+    pub unit: String,
+}
+
+impl Scale {
+    /// Millimetres, micrometres, milliseconds or microseconds when the values are small.
+    pub fn for_values(si_unit: &str, values: &[f64]) -> Scale {
+        let big = values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let pick = |options: &[(f64, &str)]| {
+            options
+                .iter()
+                .find(|(f, _)| big * f >= 0.1)
+                .or(options.last())
+                .map(|(f, u)| Scale {
+                    factor: *f,
+                    unit: u.to_string(),
+                })
+                .unwrap()
+        };
+        match si_unit {
+            "m" => pick(&[(1.0, "m"), (1e3, "mm"), (1e6, "µm")]),
+            "s" => pick(&[(1.0, "s"), (1e3, "ms"), (1e6, "µs")]),
+            u => Scale {
+                factor: 1.0,
+                unit: if u.is_empty() || u == "1" {
+                    String::new()
+                } else {
+                    u.to_string()
+                },
+            },
+        }
+    }
+
+    /// "name [unit]" for an axis.
+    pub fn label(&self, name: &str) -> String {
+        if self.unit.is_empty() {
+            name.to_string()
+        } else {
+            format!("{name} [{}]", self.unit)
+        }
+    }
+}
+
+/// Tick labels with enough digits to tell ticks apart over the range [lo, hi].
+fn tick_format(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
+    let span = (hi - lo).abs().max(f64::MIN_POSITIVE);
+    let big = lo.abs().max(hi.abs());
+    let digits = (1.0 - (span / 5.0).log10()).ceil().clamp(0.0, 9.0) as usize;
+    move |v: &f64| {
+        if big >= 1e5 || (big > 0.0 && big < 1e-3) {
+            format!("{v:.3e}")
+        } else {
+            format!("{v:.digits$}")
+        }
+    }
+}
+
+/// The range [lo, hi] padded by 5 % (or ±1 when flat).
+fn padded(lo: f64, hi: f64) -> (f64, f64) {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    if hi > lo {
+        let p = 0.05 * (hi - lo);
+        (lo - p, hi + p)
+    } else {
+        let p = if lo == 0.0 { 1.0 } else { 0.01 * lo.abs() };
+        (lo - p, hi + p)
+    }
+}
+
+type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// A figure that draws on any plotters backend.
+pub trait Figure {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB>;
+}
+
+/// Writes `stem.svg` and `stem.png`; returns the SVG path.
+pub fn save(figure: &impl Figure, stem: &Path) -> anyhow::Result<PathBuf> {
+    register_font();
+    let svg = stem.with_extension("svg");
+    let png = stem.with_extension("png");
+    {
+        let area = SVGBackend::new(&svg, SIZE).into_drawing_area();
+        figure
+            .draw(&area)
+            .map_err(|e| anyhow::anyhow!("drawing {}: {e:?}", svg.display()))?;
+        area.present()
+            .map_err(|e| anyhow::anyhow!("writing {}: {e:?}", svg.display()))?;
+    }
+    {
+        let area = BitMapBackend::new(&png, SIZE).into_drawing_area();
+        figure
+            .draw(&area)
+            .map_err(|e| anyhow::anyhow!("drawing {}: {e:?}", png.display()))?;
+        area.present()
+            .map_err(|e| anyhow::anyhow!("writing {}: {e:?}", png.display()))?;
+    }
+    Ok(svg)
+}
+
+/// Histogram of an output as a density, with the fitted normal, the mean, mean ± 3σ and
+/// the specification limits.
+pub struct HistogramFigure<'a> {
+    pub title: String,
+    pub scale: Scale,
+    pub name: &'a str,
+    /// Successful values (SI).
+    pub values: &'a [f64],
+    pub mean: f64,
+    pub sd: f64,
+    pub limits: (Option<f64>, Option<f64>),
+}
+
+impl Figure for HistogramFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let k = self.scale.factor;
+        let mut sorted: Vec<f64> = self.values.iter().map(|v| v * k).collect();
+        sorted.sort_by(f64::total_cmp);
+        let (lo, width, counts) = crate::study::statistics::histogram(&sorted);
+        let n = sorted.len().max(1) as f64;
+        let (m, s) = (self.mean * k, self.sd * k);
+        let mut x_lo = lo.min(m - 3.2 * s);
+        let mut x_hi = (lo + width * counts.len() as f64).max(m + 3.2 * s);
+        for l in [self.limits.0, self.limits.1].into_iter().flatten() {
+            x_lo = x_lo.min(l * k);
+            x_hi = x_hi.max(l * k);
+        }
+        let (x_lo, x_hi) = padded(x_lo, x_hi);
+        let density: Vec<f64> = counts.iter().map(|&c| c as f64 / (n * width)).collect();
+        let pdf_peak = if s > 0.0 {
+            1.0 / (s * (2.0 * std::f64::consts::PI).sqrt())
+        } else {
+            0.0
+        };
+        let y_hi = density.iter().fold(pdf_peak, |a, &b| a.max(b)) * 1.12;
+        let y_hi = if y_hi > 0.0 { y_hi } else { 1.0 };
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, 18))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x_lo..x_hi, 0.0..y_hi)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.scale.label(self.name))
+            .y_desc(format!("probability density [1/{}]", self.scale.unit).replace(" [1/]", ""))
+            .x_label_formatter(&tick_format(x_lo, x_hi))
+            .y_label_formatter(&tick_format(0.0, y_hi))
+            .y_labels(6)
+            .x_labels(7)
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 14))
+            .light_line_style(WHITE)
+            .draw()?;
+        chart
+            .draw_series(density.iter().enumerate().map(|(i, &d)| {
+                let x0 = lo + width * i as f64;
+                Rectangle::new([(x0, 0.0), (x0 + width, d)], BLUE.mix(0.45).filled())
+            }))?
+            .label(format!("{} samples", sorted.len()))
+            .legend(|(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 14, y + 5)], BLUE.mix(0.45).filled())
+            });
+        if s > 0.0 {
+            let pts = (0..=200).map(|i| {
+                let x = x_lo + (x_hi - x_lo) * i as f64 / 200.0;
+                (x, pdf_peak * (-0.5 * ((x - m) / s).powi(2)).exp())
+            });
+            chart
+                .draw_series(LineSeries::new(pts, ORANGE.stroke_width(2)))?
+                .label("fitted normal")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], ORANGE.stroke_width(2)));
+        }
+        let vline = |x: f64| vec![(x, 0.0), (x, y_hi * 0.95)];
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vline(m),
+                BLACK.stroke_width(2),
+            )))?
+            .label("mean")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], BLACK.stroke_width(2)));
+        chart
+            .draw_series(
+                [m - 3.0 * s, m + 3.0 * s]
+                    .into_iter()
+                    .map(|x| PathElement::new(vline(x), GREY.stroke_width(1))),
+            )?
+            .label("mean ± 3σ")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], GREY.stroke_width(1)));
+        let limits: Vec<f64> = [self.limits.0, self.limits.1]
+            .into_iter()
+            .flatten()
+            .map(|l| l * k)
+            .collect();
+        if !limits.is_empty() {
+            chart
+                .draw_series(
+                    limits
+                        .into_iter()
+                        .map(|x| PathElement::new(vline(x), RED.stroke_width(2))),
+                )?
+                .label("spec limits")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], RED.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(GREY)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+        Ok(())
+    }
+}
+
+/// Empirical CDF of an output.
+pub struct EcdfFigure<'a> {
+    pub title: String,
+    pub scale: Scale,
+    pub name: &'a str,
+    pub values: &'a [f64],
+}
+
+impl Figure for EcdfFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let mut v: Vec<f64> = self.values.iter().map(|x| x * self.scale.factor).collect();
+        v.sort_by(f64::total_cmp);
+        let (lo, hi) = padded(
+            v.first().copied().unwrap_or(0.0),
+            v.last().copied().unwrap_or(1.0),
+        );
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, 18))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(lo..hi, 0.0..1.0)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.scale.label(self.name))
+            .y_desc("fraction of samples ≤ x")
+            .x_label_formatter(&tick_format(lo, hi))
+            .x_labels(7)
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 14))
+            .draw()?;
+        let n = v.len().max(1) as f64;
+        let mut pts = vec![(lo, 0.0)];
+        for (i, x) in v.iter().enumerate() {
+            pts.push((*x, i as f64 / n));
+            pts.push((*x, (i + 1) as f64 / n));
+        }
+        pts.push((hi, 1.0));
+        chart.draw_series(LineSeries::new(pts, BLUE.stroke_width(2)))?;
+        Ok(())
+    }
+}
+
+/// An output against an input, with their correlation in the title.
+pub struct ScatterFigure<'a> {
+    pub title: String,
+    pub x_name: &'a str,
+    pub x_scale: Scale,
+    pub y_name: &'a str,
+    pub y_scale: Scale,
+    pub points: &'a [(f64, f64)],
+}
+
+impl Figure for ScatterFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let pts: Vec<(f64, f64)> = self
+            .points
+            .iter()
+            .map(|(x, y)| (x * self.x_scale.factor, y * self.y_scale.factor))
+            .collect();
+        let range = |f: fn(&(f64, f64)) -> f64| {
+            let (lo, hi) = pts
+                .iter()
+                .map(f)
+                .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+            padded(lo, hi)
+        };
+        let (x0, x1) = range(|p| p.0);
+        let (y0, y1) = range(|p| p.1);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, 17))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x_scale.label(self.x_name))
+            .y_desc(self.y_scale.label(self.y_name))
+            .x_label_formatter(&tick_format(x0, x1))
+            .y_label_formatter(&tick_format(y0, y1))
+            .x_labels(6)
+            .y_labels(6)
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 14))
+            .draw()?;
+        let radius = if pts.len() > 5000 { 1 } else { 2 };
+        chart.draw_series(
+            pts.iter()
+                .map(|&p| Circle::new(p, radius, BLUE.mix(0.5).filled())),
+        )?;
+        Ok(())
+    }
+}
+
+/// One series of bars: a label, a value per input and optional 95 % intervals.
+pub struct BarSeries {
+    pub label: String,
+    pub values: Vec<f64>,
+    pub intervals: Option<Vec<(f64, f64)>>,
+}
+
+/// Bars per input: one or two series (e.g. first-order and total indices).
+pub struct BarsFigure {
+    pub title: String,
+    pub y_desc: String,
+    pub inputs: Vec<String>,
+    pub series: Vec<BarSeries>,
+}
+
+impl Figure for BarsFigure {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let n = self.inputs.len();
+        let mut y_hi: f64 = 0.0;
+        let mut y_lo: f64 = 0.0;
+        for BarSeries {
+            values: v,
+            intervals: ci,
+            ..
+        } in &self.series
+        {
+            for (i, x) in v.iter().enumerate() {
+                if x.is_finite() {
+                    y_hi = y_hi.max(*x);
+                    y_lo = y_lo.min(*x);
+                }
+                if let Some(ci) = ci {
+                    y_hi = y_hi.max(ci[i].1);
+                    y_lo = y_lo.min(ci[i].0);
+                }
+            }
+        }
+        let y_hi = if y_hi > 0.0 { y_hi * 1.15 } else { 1.0 };
+        let y_lo = if y_lo < 0.0 { y_lo * 1.15 } else { 0.0 };
+        let inputs = self.inputs.clone();
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, 17))
+            .margin(12)
+            .x_label_area_size(55)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..n as f64, y_lo..y_hi)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n.max(1) * 2 + 1)
+            .x_label_formatter(&move |x: &f64| {
+                let i = (x - 0.5).round();
+                if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < inputs.len() {
+                    inputs[i as usize].clone()
+                } else {
+                    String::new()
+                }
+            })
+            .y_desc(&self.y_desc)
+            .y_label_formatter(&|v| format!("{v:.2}"))
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 14))
+            .draw()?;
+        let m = self.series.len().max(1) as f64;
+        let colors = [BLUE, ORANGE];
+        for (s, series) in self.series.iter().enumerate() {
+            let (label, values, ci) = (&series.label, &series.values, &series.intervals);
+            let color = colors[s % 2];
+            let left = |i: usize| i as f64 + 0.1 + 0.8 * s as f64 / m;
+            let w = 0.8 / m;
+            chart
+                .draw_series(
+                    values
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.is_finite())
+                        .map(|(i, &v)| {
+                            Rectangle::new([(left(i), 0.0), (left(i) + w, v)], color.filled())
+                        }),
+                )?
+                .label(label.as_str())
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 14, y + 5)], color.filled())
+                });
+            if let Some(ci) = ci {
+                chart.draw_series(ci.iter().enumerate().map(|(i, &(a, b))| {
+                    let x = left(i) + w / 2.0;
+                    PathElement::new(vec![(x, a), (x, b)], BLACK.stroke_width(2))
+                }))?;
+            }
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(GREY)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+        Ok(())
+    }
+}
+
+/// Running mean (with its 95 % band) and running σ of an output against the sample
+/// count, in sample-id order.
+pub struct ConvergenceFigure<'a> {
+    pub title: String,
+    pub scale: Scale,
+    pub name: &'a str,
+    pub values: &'a [f64],
+}
+
+impl Figure for ConvergenceFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let k = self.scale.factor;
+        // Welford's running mean and variance
+        let (mut mean, mut m2) = (0.0, 0.0);
+        let mut rows = Vec::with_capacity(self.values.len());
+        for (i, v) in self.values.iter().enumerate() {
+            let x = v * k;
+            let n = (i + 1) as f64;
+            let d = x - mean;
+            mean += d / n;
+            m2 += d * (x - mean);
+            let sd = if i > 0 { (m2 / (n - 1.0)).sqrt() } else { 0.0 };
+            rows.push((n, mean, sd));
+        }
+        // from the 2nd sample (or the 2 % mark) on, at most ~2000 points
+        let start = (rows.len() / 50).max(1).min(rows.len());
+        let stride = rows.len().div_ceil(2000).max(1);
+        let shown: Vec<(f64, f64, f64)> = rows[start..]
+            .iter()
+            .step_by(stride)
+            .chain(rows.last())
+            .copied()
+            .collect();
+        let shown = &shown[..];
+        let (title_area, rest) = area.split_vertically(30);
+        title_area.titled(&self.title, (FONT, 17))?;
+        let (top, bottom) = rest.split_vertically(rest.dim_in_pixel().1 / 2);
+        let n_max = rows.len().max(2) as f64;
+        let band = |r: &(f64, f64, f64)| 1.96 * r.2 / r.0.sqrt();
+        let (lo, hi) = shown.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+            (a.min(r.1 - band(r)), b.max(r.1 + band(r)))
+        });
+        let (lo, hi) = padded(lo, hi);
+        let mut c1 = ChartBuilder::on(&top)
+            .margin(8)
+            .x_label_area_size(20)
+            .y_label_area_size(80)
+            .build_cartesian_2d(1.0..n_max, lo..hi)?;
+        c1.configure_mesh()
+            .y_desc(format!("mean{}", unit_suffix(&self.scale)))
+            .y_label_formatter(&tick_format(lo, hi))
+            .y_labels(5)
+            .x_label_formatter(&|_| String::new())
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .draw()?;
+        c1.draw_series(std::iter::once(Polygon::new(
+            shown
+                .iter()
+                .map(|r| (r.0, r.1 + band(r)))
+                .chain(shown.iter().rev().map(|r| (r.0, r.1 - band(r))))
+                .collect::<Vec<_>>(),
+            BLUE.mix(0.15).filled(),
+        )))?;
+        c1.draw_series(LineSeries::new(
+            shown.iter().map(|r| (r.0, r.1)),
+            BLUE.stroke_width(2),
+        ))?;
+        let (slo, shi) = shown
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), r| (a.min(r.2), b.max(r.2)));
+        let (slo, shi) = padded(slo, shi);
+        let mut c2 = ChartBuilder::on(&bottom)
+            .margin(8)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(1.0..n_max, slo..shi)?;
+        c2.configure_mesh()
+            .x_desc("samples")
+            .y_desc(format!("σ{}", unit_suffix(&self.scale)))
+            .y_label_formatter(&tick_format(slo, shi))
+            .y_labels(5)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .draw()?;
+        c2.draw_series(LineSeries::new(
+            shown.iter().map(|r| (r.0, r.2)),
+            ORANGE.stroke_width(2),
+        ))?;
+        Ok(())
+    }
+}
+
+fn unit_suffix(s: &Scale) -> String {
+    if s.unit.is_empty() {
+        String::new()
+    } else {
+        format!(" [{}]", s.unit)
+    }
+}
+
+/// Histogram of log10 of a positive diagnostic (max penetration, solver residual).
+pub struct LogHistogramFigure<'a> {
+    pub title: String,
+    pub x_desc: String,
+    pub values: &'a [f64],
+}
+
+impl Figure for LogHistogramFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let mut logs: Vec<f64> = self.values.iter().map(|v| v.max(1e-20).log10()).collect();
+        logs.sort_by(f64::total_cmp);
+        let (lo, width, counts) = crate::study::statistics::histogram(&logs);
+        let (x0, x1) = padded(lo, lo + width * counts.len() as f64);
+        let y1 = counts.iter().copied().max().unwrap_or(1).max(1) as f64 * 1.1;
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, 17))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, 0.0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_desc)
+            .y_desc("samples")
+            .x_label_formatter(&tick_format(x0, x1))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 14))
+            .draw()?;
+        chart.draw_series(counts.iter().enumerate().map(|(i, &c)| {
+            let a = lo + width * i as f64;
+            Rectangle::new([(a, 0.0), (a + width, c as f64)], GREY.mix(0.6).filled())
+        }))?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scales_pick_readable_units() {
+        assert_eq!(Scale::for_values("m", &[1.07e-2]).unit, "mm");
+        assert_eq!(Scale::for_values("m", &[2.0e-5]).unit, "µm");
+        assert_eq!(Scale::for_values("m", &[0.69]).unit, "m");
+        assert_eq!(Scale::for_values("s", &[4.7e-3]).unit, "ms");
+        assert_eq!(Scale::for_values("N", &[13.6]).unit, "N");
+        assert_eq!(Scale::for_values("1", &[3.0]).label("y"), "y");
+    }
+
+    #[test]
+    fn ticks_carry_enough_digits() {
+        let f = tick_format(10.69, 10.71);
+        assert_eq!(f(&10.695), "10.695");
+        let f = tick_format(0.0, 500.0);
+        assert_eq!(f(&250.0), "250");
+    }
+}

@@ -1,0 +1,294 @@
+//! The report page: one HTML file with every figure inlined as SVG, the tables, the study
+//! text, the fidelity and the run's health. No script, no stylesheet or image from
+//! elsewhere: it opens offline in any browser.
+
+use super::figures::Scale;
+use super::{Data, FigureFile};
+use crate::study::store::{META_SCENE, META_STUDY, META_VERSION};
+use anyhow::{Context, Result};
+use std::fmt::Write;
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// The indented block under `key:` at the top level of a YAML text (or None).
+fn yaml_block(text: &str, key: &str) -> Option<String> {
+    let mut lines = text
+        .lines()
+        .skip_while(|l| !l.starts_with(&format!("{key}:")));
+    let first = lines.next()?;
+    let mut block = vec![first];
+    block.extend(lines.take_while(|l| l.starts_with(' ') || l.trim().is_empty()));
+    Some(block.join("\n").trim_end().to_string())
+}
+
+/// The SVG text of a figure, without an XML declaration, for inlining.
+fn inline_svg(f: &FigureFile) -> Result<String> {
+    let text =
+        std::fs::read_to_string(&f.svg).with_context(|| format!("reading {}", f.svg.display()))?;
+    let start = text.find("<svg").unwrap_or(0);
+    Ok(text[start..].to_string())
+}
+
+fn num(v: f64, scale: &Scale) -> String {
+    if v.is_finite() {
+        format!("{:.6}", v * scale.factor)
+    } else {
+        "–".into()
+    }
+}
+
+const STYLE: &str =
+    "body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#111;line-height:1.4}
+h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ccc}
+table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0}
+td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eef}
+td:first-child,th:first-child{text-align:left}
+pre{background:#f6f6f6;padding:0.6em;overflow-x:auto;font-size:0.85em}
+.figs{display:flex;flex-wrap:wrap;gap:12px}.figs figure{margin:0;width:580px}
+.figs svg{width:100%;height:auto;border:1px solid #ddd}
+figcaption{font-size:0.8em;color:#444}
+.meta td{text-align:left}";
+
+pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
+    let t = &data.table;
+    let m = &data.manifest;
+    let meta = |k: &str| t.metadata.get(k).cloned().unwrap_or_default();
+    let study_yaml = meta(META_STUDY);
+    let scene_yaml = meta(META_SCENE);
+    let version = meta(META_VERSION);
+    let ok = t.rows.iter().filter(|r| !r.failed()).count();
+    let failed = t.rows.len() - ok;
+    let wall_ms: f64 = t.rows.iter().map(|r| r.diagnostics.wall_ms).sum();
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>mc-study report: {}</title><style>{STYLE}</style></head><body>\n",
+        esc(&m.study_name)
+    );
+    let _ = writeln!(s, "<h1>Study <code>{}</code></h1>", esc(&m.study_name));
+    let _ = writeln!(s, "<table class=\"meta\">");
+    for (k, v) in [
+        ("tool", format!("mc-study {}", esc(&version))),
+        (
+            "design",
+            format!("{}, seed {}, {} runs", esc(&m.design), m.seed, m.runs),
+        ),
+        (
+            "samples",
+            format!(
+                "{ok} ok, {failed} failed{}",
+                if data.missing.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        ", <b>{} missing</b> ({})",
+                        data.missing.count(),
+                        esc(&data.missing.describe(8))
+                    )
+                }
+            ),
+        ),
+        (
+            "wall time",
+            format!(
+                "{:.1} s of simulation in all, {:.2} ms per sample (one core each)",
+                wall_ms / 1e3,
+                wall_ms / t.rows.len().max(1) as f64
+            ),
+        ),
+        ("study hash", format!("<code>{}</code>", esc(&m.study_hash))),
+        ("results", esc(&data.out.display().to_string())),
+    ] {
+        let _ = writeln!(s, "<tr><th>{k}</th><td>{v}</td></tr>");
+    }
+    let _ = writeln!(s, "</table>");
+    let fidelity = [
+        yaml_block(&scene_yaml, "integrator").map(|b| format!("# scene\n{b}")),
+        yaml_block(&study_yaml, "fidelity").map(|b| format!("# study (overrides)\n{b}")),
+    ]
+    .into_iter()
+    .flatten()
+    .collect::<Vec<_>>();
+    let _ = writeln!(
+        s,
+        "<h3>Fidelity</h3><pre>{}</pre>",
+        if fidelity.is_empty() {
+            "engine defaults (see src/integrator/params.rs)".to_string()
+        } else {
+            esc(&fidelity.join("\n"))
+        }
+    );
+
+    // summary table, each output in its display unit
+    let _ = writeln!(s, "<h2>Summary</h2><table><tr><th>output</th><th>unit</th><th>n</th><th>failed</th><th>mean</th><th>95 % CI of mean</th><th>σ</th><th>min</th><th>1 %</th><th>5 %</th><th>50 %</th><th>95 %</th><th>99 %</th><th>max</th><th>out of spec (Wilson 95 %)</th><th>Cp / Cpk</th></tr>");
+    for o in &data.summary.outputs {
+        let sc = Scale::for_values(&o.unit, &[o.mean, o.min, o.max]);
+        let q: Vec<String> = o.quantiles.iter().map(|(_, v)| num(*v, &sc)).collect();
+        let spec = match &o.out_of_spec {
+            Some(x) => format!(
+                "{} = {:.3} % ({:.3}–{:.3} %)",
+                x.count,
+                100.0 * x.fraction,
+                100.0 * x.wilson95.0,
+                100.0 * x.wilson95.1
+            ),
+            None => "–".into(),
+        };
+        let cap = match (o.cp, o.cpk) {
+            (Some(a), Some(b)) => format!("{a:.2} / {b:.2}"),
+            (None, Some(b)) => format!("– / {b:.2}"),
+            _ => "–".into(),
+        };
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{spec}</td><td>{cap}</td></tr>",
+            esc(&o.name),
+            esc(&sc.unit),
+            o.count,
+            o.failed,
+            num(o.mean, &sc),
+            num(o.mean_ci95.0, &sc),
+            num(o.mean_ci95.1, &sc),
+            num(o.sd, &sc),
+            num(o.min, &sc),
+            q[0], q[1], q[2], q[3], q[4],
+            num(o.max, &sc),
+        );
+    }
+    let _ = writeln!(s, "</table>");
+
+    // sensitivity tables
+    let inputs: Vec<&str> = t.columns.inputs.iter().map(|(n, _)| n.as_str()).collect();
+    let _ = writeln!(s, "<h2>Sensitivity</h2><p>SRC: standardised regression coefficients of a linear model of the output on the inputs; SRC² is the share of variance of input j when the model fits (R² near 1). SRRC: the same on ranks. Pearson / Spearman: correlations.{}</p>",
+        if m.design == "saltelli" { " Sobol' indices: first order (Saltelli 2010) and total (Jansen), bootstrap 95 % intervals." } else { " Sobol' indices need <code>design: saltelli</code>." });
+    let _ = write!(s, "<table><tr><th>output</th><th>measure</th>");
+    for i in &inputs {
+        let _ = write!(s, "<th>{}</th>", esc(i));
+    }
+    let _ = writeln!(s, "<th>R²</th></tr>");
+    for (k, sens) in data.sensitivity.iter().enumerate() {
+        let name = &t.columns.outputs[k].0;
+        let mut row = |label: &str, values: Vec<String>, r2: String| {
+            let _ = write!(s, "<tr><td>{}</td><td>{label}</td>", esc(name));
+            for v in values {
+                let _ = write!(s, "<td>{v}</td>");
+            }
+            let _ = writeln!(s, "<td>{r2}</td></tr>");
+        };
+        let corr = |f: &dyn Fn(&crate::study::summary::Correlation) -> f64| -> Vec<String> {
+            inputs
+                .iter()
+                .map(|i| {
+                    data.summary
+                        .correlations
+                        .iter()
+                        .find(|c| c.input == *i && &c.output == name)
+                        .map_or("–".into(), |c| format!("{:.3}", f(c)))
+                })
+                .collect()
+        };
+        row("Pearson", corr(&|c| c.pearson), String::new());
+        row("Spearman", corr(&|c| c.spearman), String::new());
+        let fmt = |v: &f64| {
+            if v.is_finite() {
+                format!("{v:.3}")
+            } else {
+                "–".into()
+            }
+        };
+        if let Some((c, r2)) = &sens.src {
+            row("SRC", c.iter().map(fmt).collect(), format!("{r2:.3}"));
+        }
+        if let Some((c, r2)) = &sens.srrc {
+            row("SRRC", c.iter().map(fmt).collect(), format!("{r2:.3}"));
+        }
+        if let Some(sob) = &sens.sobol {
+            let e = |x: &crate::study::sensitivity::Estimate| {
+                format!("{:.3} [{:.3}, {:.3}]", x.value, x.ci95.0, x.ci95.1)
+            };
+            row("Sobol' S", sob.first.iter().map(e).collect(), String::new());
+            row(
+                "Sobol' ST",
+                sob.total.iter().map(e).collect(),
+                String::new(),
+            );
+        }
+    }
+    let _ = writeln!(s, "</table>");
+
+    for (section, title, intro) in [
+        ("distributions", "Distributions", "Histogram with the fitted normal, the mean, mean ± 3σ and the specification limits; empirical CDF."),
+        ("sensitivity", "Sensitivity figures", ""),
+        ("scatter", "Outputs against inputs", ""),
+        ("convergence", "Convergence", "Running mean with its 95 % band and running σ against the number of samples, in sample order."),
+        ("health", "Run health", "Per-sample diagnostics of the integrator."),
+    ] {
+        let figs: Vec<&FigureFile> = figures.iter().filter(|f| f.section == section).collect();
+        if figs.is_empty() && section != "health" {
+            continue;
+        }
+        let _ = writeln!(s, "<h2>{title}</h2>");
+        if !intro.is_empty() {
+            let _ = writeln!(s, "<p>{intro}</p>");
+        }
+        if section == "health" {
+            let _ = writeln!(s, "<p>{failed} of {} samples failed.</p>", t.rows.len());
+            if !data.summary.failures.is_empty() {
+                let _ = writeln!(s, "<table><tr><th>reason</th><th>samples</th></tr>");
+                for (reason, n) in &data.summary.failures {
+                    let _ = writeln!(s, "<tr><td>{}</td><td>{n}</td></tr>", esc(reason));
+                }
+                let _ = writeln!(s, "</table>");
+            }
+            let nonconv: u64 = t.rows.iter().map(|r| r.diagnostics.nonconverged_steps).sum();
+            let with: usize = t
+                .rows
+                .iter()
+                .filter(|r| r.diagnostics.nonconverged_steps > 0)
+                .count();
+            let _ = writeln!(
+                s,
+                "<p>{nonconv} non-converged steps in {with} samples (counted, never accepted silently).</p>"
+            );
+        }
+        let _ = writeln!(s, "<div class=\"figs\">");
+        for f in figs {
+            let _ = writeln!(
+                s,
+                "<figure>{}<figcaption>{} — <code>figures/{}</code> (.svg, .png)</figcaption></figure>",
+                inline_svg(f)?,
+                esc(&f.title),
+                esc(&f.svg.file_stem().unwrap_or_default().to_string_lossy())
+            );
+        }
+        let _ = writeln!(s, "</div>");
+    }
+    let _ = writeln!(
+        s,
+        "<h2>Study file</h2><pre>{}</pre><h2>Scene file</h2><pre>{}</pre></body></html>",
+        esc(&study_yaml),
+        esc(&scene_yaml)
+    );
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::yaml_block;
+
+    #[test]
+    fn yaml_block_takes_the_indented_lines() {
+        let text =
+            "name: x\nintegrator:\n  h: 10 us\n  solver: { tolerance: 1e-6 }\nbodies:\n  - a\n";
+        assert_eq!(
+            yaml_block(text, "integrator").unwrap(),
+            "integrator:\n  h: 10 us\n  solver: { tolerance: 1e-6 }"
+        );
+        assert_eq!(yaml_block(text, "fidelity"), None);
+    }
+}

@@ -1,0 +1,358 @@
+//! `mc-study report OUT`: one self-contained HTML page (`OUT/report/report.html`, figures
+//! inlined as SVG, no network) plus an SVG and a PNG per figure in `OUT/report/figures/`,
+//! and the sensitivity indices in `OUT/report/sensitivity.json`.
+
+pub mod figures;
+mod html;
+
+use crate::study::manifest::{Manifest, Ranges};
+use crate::study::merge::collect;
+use crate::study::sensitivity::{sobol_indices, src, srrc, Regression, SobolIndices};
+use crate::study::store::{self, Table};
+use crate::study::summary::Summary;
+use anyhow::{bail, Context, Result};
+use figures::{
+    save, BarSeries, BarsFigure, ConvergenceFigure, EcdfFigure, HistogramFigure,
+    LogHistogramFigure, Scale, ScatterFigure,
+};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Seed of the bootstrap of the Sobol' intervals (fixed: a report is reproducible).
+const BOOTSTRAP_SEED: u64 = 2026;
+
+/// Sensitivity of one output.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputSensitivity {
+    pub output: String,
+    /// SRC per input and R², from the design's independent rows.
+    pub src: Option<(Vec<f64>, f64)>,
+    pub srrc: Option<(Vec<f64>, f64)>,
+    /// With a Saltelli design.
+    pub sobol: Option<SobolIndices>,
+}
+
+/// A figure of the report: its title, its section and its SVG file.
+pub struct FigureFile {
+    pub section: &'static str,
+    pub title: String,
+    pub svg: PathBuf,
+}
+
+/// What `report` wrote.
+pub struct Report {
+    pub html: PathBuf,
+    pub figures: Vec<FigureFile>,
+    pub sensitivity: Vec<OutputSensitivity>,
+}
+
+fn to_pair(r: Option<Regression>) -> Option<(Vec<f64>, f64)> {
+    r.map(|r| (r.coefficients, r.r2))
+}
+
+/// Everything the page shows, computed from the result directory.
+pub(crate) struct Data {
+    pub out: PathBuf,
+    pub manifest: Manifest,
+    pub table: Table,
+    pub summary: Summary,
+    pub missing: Ranges,
+    pub sensitivity: Vec<OutputSensitivity>,
+}
+
+fn column(table: &Table, f: impl Fn(&store::Row) -> f64) -> Vec<f64> {
+    table.rows.iter().map(f).collect()
+}
+
+fn analyse(out: &Path) -> Result<Data> {
+    let (manifest, table) = collect(out)?;
+    if table.rows.is_empty() {
+        bail!(
+            "{} holds no samples yet: run the study first",
+            out.display()
+        );
+    }
+    let missing =
+        Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
+    let summary = Summary::of(&manifest.study_name, &table, &manifest.limits);
+    let d = table.columns.inputs.len();
+    let saltelli = manifest.design == "saltelli";
+    // rows for the regressions: the independent points (A and B blocks of Saltelli)
+    let independent: Vec<&store::Row> = table
+        .rows
+        .iter()
+        .filter(|r| !saltelli || (r.id % (d as u64 + 2)) < 2)
+        .collect();
+    let xs: Vec<Vec<f64>> = (0..d)
+        .map(|j| independent.iter().map(|r| r.inputs[j]).collect())
+        .collect();
+    let sensitivity = table
+        .columns
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(k, (name, _))| {
+            let y: Vec<f64> = independent.iter().map(|r| r.outputs[k]).collect();
+            let sobol = saltelli.then(|| {
+                // by sample id, NaN where a run failed or is missing
+                let mut by_id = vec![f64::NAN; manifest.runs as usize];
+                for r in &table.rows {
+                    by_id[r.id as usize] = r.outputs[k];
+                }
+                sobol_indices(&by_id, d, BOOTSTRAP_SEED)
+            });
+            OutputSensitivity {
+                output: name.clone(),
+                src: to_pair(src(&xs, &y)),
+                srrc: to_pair(srrc(&xs, &y)),
+                sobol: sobol.flatten(),
+            }
+        })
+        .collect();
+    Ok(Data {
+        out: out.to_path_buf(),
+        manifest,
+        table,
+        summary,
+        missing,
+        sensitivity,
+    })
+}
+
+/// File-name-safe stem.
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+fn short_input(name: &str) -> String {
+    // "joints.J3.clearance" → "J3.clearance", "inputs.x1" → "x1"
+    name.split_once('.')
+        .map(|(_, rest)| rest.to_string())
+        .unwrap_or_else(|| name.to_string())
+}
+
+/// At most this many points in a scatter plot and in a running-statistics curve (every
+/// k-th sample beyond): the figures stay light whatever N.
+const MAX_POINTS: usize = 5000;
+
+fn thin<T: Clone>(v: &[T]) -> Vec<T> {
+    let k = v.len().div_ceil(MAX_POINTS).max(1);
+    v.iter().step_by(k).cloned().collect()
+}
+
+fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
+    let mut out = Vec::new();
+    let t = &data.table;
+    let ok: Vec<&store::Row> = t.rows.iter().filter(|r| !r.failed()).collect();
+    let inputs: Vec<String> = t
+        .columns
+        .inputs
+        .iter()
+        .map(|(n, _)| short_input(n))
+        .collect();
+    for (k, (name, unit)) in t.columns.outputs.iter().enumerate() {
+        let s = &data.summary.outputs[k];
+        let values: Vec<f64> = ok
+            .iter()
+            .map(|r| r.outputs[k])
+            .filter(|v| v.is_finite())
+            .collect();
+        if values.is_empty() {
+            continue;
+        }
+        let scale = Scale::for_values(unit, &values);
+        let stem = dir.join(format!("hist_{}", slug(name)));
+        let fmt = |v: f64| format!("{:.5}", v * scale.factor);
+        let svg = save(
+            &HistogramFigure {
+                title: format!(
+                    "{name}: mean {} {u}, σ {} {u}",
+                    fmt(s.mean),
+                    fmt(s.sd),
+                    u = scale.unit
+                ),
+                scale: scale.clone(),
+                name,
+                values: &values,
+                mean: s.mean,
+                sd: s.sd,
+                limits: (s.lower_limit, s.upper_limit),
+            },
+            &stem,
+        )?;
+        out.push(FigureFile {
+            section: "distributions",
+            title: format!("{name}: histogram"),
+            svg,
+        });
+        let svg = save(
+            &EcdfFigure {
+                title: format!("{name}: empirical CDF"),
+                scale: scale.clone(),
+                name,
+                values: &values,
+            },
+            &dir.join(format!("ecdf_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "distributions",
+            title: format!("{name}: empirical CDF"),
+            svg,
+        });
+        let svg = save(
+            &ConvergenceFigure {
+                title: format!("{name}: running mean (95 % band) and σ"),
+                scale: scale.clone(),
+                name,
+                values: &values,
+            },
+            &dir.join(format!("conv_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "convergence",
+            title: format!("{name}: running statistics"),
+            svg,
+        });
+        for (j, (input, input_unit)) in t.columns.inputs.iter().enumerate() {
+            let points: Vec<(f64, f64)> = thin(
+                &ok.iter()
+                    .filter(|r| r.outputs[k].is_finite())
+                    .map(|r| (r.inputs[j], r.outputs[k]))
+                    .collect::<Vec<_>>(),
+            );
+            let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+            let corr = data
+                .summary
+                .correlations
+                .iter()
+                .find(|c| &c.input == input && &c.output == name);
+            let title = match corr {
+                Some(c) => format!(
+                    "{name} vs {}: Pearson {:.2}, Spearman {:.2}",
+                    inputs[j], c.pearson, c.spearman
+                ),
+                None => format!("{name} vs {}", inputs[j]),
+            };
+            let svg = save(
+                &ScatterFigure {
+                    title: title.clone(),
+                    x_name: &inputs[j],
+                    x_scale: Scale::for_values(input_unit, &xs),
+                    y_name: name,
+                    y_scale: scale.clone(),
+                    points: &points,
+                },
+                &dir.join(format!("scatter_{}_{}", slug(name), slug(input))),
+            )?;
+            out.push(FigureFile {
+                section: "scatter",
+                title,
+                svg,
+            });
+        }
+        let sens = &data.sensitivity[k];
+        if let Some((src, r2)) = &sens.src {
+            let svg = save(
+                &BarsFigure {
+                    title: format!("{name}: SRC² (linear model R² = {r2:.3})"),
+                    y_desc: "SRC² (share of variance if linear)".into(),
+                    inputs: inputs.clone(),
+                    series: vec![BarSeries {
+                        label: "SRC²".into(),
+                        values: src.iter().map(|c| c * c).collect(),
+                        intervals: None,
+                    }],
+                },
+                &dir.join(format!("src_{}", slug(name))),
+            )?;
+            out.push(FigureFile {
+                section: "sensitivity",
+                title: format!("{name}: SRC²"),
+                svg,
+            });
+        }
+        if let Some(sobol) = &sens.sobol {
+            let svg = save(
+                &BarsFigure {
+                    title: format!("{name}: Sobol' indices ({} base rows)", sobol.base_rows),
+                    y_desc: "index (bootstrap 95 % interval)".into(),
+                    inputs: inputs.clone(),
+                    series: vec![
+                        BarSeries {
+                            label: "first order S".into(),
+                            values: sobol.first.iter().map(|e| e.value).collect(),
+                            intervals: Some(sobol.first.iter().map(|e| e.ci95).collect()),
+                        },
+                        BarSeries {
+                            label: "total ST".into(),
+                            values: sobol.total.iter().map(|e| e.value).collect(),
+                            intervals: Some(sobol.total.iter().map(|e| e.ci95).collect()),
+                        },
+                    ],
+                },
+                &dir.join(format!("sobol_{}", slug(name))),
+            )?;
+            out.push(FigureFile {
+                section: "sensitivity",
+                title: format!("{name}: Sobol' indices"),
+                svg,
+            });
+        }
+    }
+    // run health: only meaningful for simulated samples
+    let steps = column(t, |r| r.diagnostics.steps as f64);
+    if steps.iter().any(|&s| s > 0.0) {
+        for (label, file, values) in [
+            (
+                "largest penetration per sample",
+                "health_penetration",
+                column(t, |r| r.diagnostics.max_penetration),
+            ),
+            (
+                "largest contact-solver residual per sample",
+                "health_residual",
+                column(t, |r| r.diagnostics.max_solver_residual),
+            ),
+        ] {
+            let svg = save(
+                &LogHistogramFigure {
+                    title: label.to_string(),
+                    x_desc: if file == "health_penetration" {
+                        "log10(max penetration [m])".into()
+                    } else {
+                        "log10(max natural-map residual)".into()
+                    },
+                    values: &values,
+                },
+                &dir.join(file),
+            )?;
+            out.push(FigureFile {
+                section: "health",
+                title: label.to_string(),
+                svg,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Builds the report of the result directory `out`.
+pub fn build(out: &Path) -> Result<Report> {
+    let data = analyse(out)?;
+    let dir = out.join("report");
+    let fig_dir = dir.join("figures");
+    std::fs::create_dir_all(&fig_dir).with_context(|| format!("creating {}", fig_dir.display()))?;
+    let figures = draw_figures(&data, &fig_dir)?;
+    let json = serde_json::to_string_pretty(&data.sensitivity)?;
+    std::fs::write(dir.join("sensitivity.json"), json)?;
+    let page = html::page(&data, &figures)?;
+    let path = dir.join("report.html");
+    std::fs::write(&path, page).with_context(|| format!("writing {}", path.display()))?;
+    Ok(Report {
+        html: path,
+        figures,
+        sensitivity: data.sensitivity,
+    })
+}

@@ -1,0 +1,162 @@
+//! Sensitivity analysis against closed forms, and the report page:
+//! - Ishigami (a = 7, b = 0.1, uniform inputs on [−π, π]) with a Saltelli design of base
+//!   N = 2^14: Sobol' first-order and total indices within 0.02 of the exact values and
+//!   the exact values inside their bootstrap 95 % intervals;
+//! - a linear model y = Σ a_i x_i with independent normal inputs: SRC_i² equal to
+//!   a_i² σ_i² / Σ_k a_k² σ_k² to 1e-2, R² ≈ 1;
+//! - the report of a small mechanism study: every figure file exists and is non-empty, the
+//!   HTML page inlines every figure and references nothing outside itself.
+
+mod common;
+
+use common::{scratch, study_path};
+use mc_study::report;
+use mc_study::study::runner::{run, RunOptions};
+use mc_study::study::Study;
+use std::path::Path;
+
+fn run_study(dir: &Path, text: &str) -> std::path::PathBuf {
+    let f = dir.join("study.yaml");
+    std::fs::write(&f, text).unwrap();
+    let study = Study::load(&f, None).unwrap_or_else(|e| panic!("{e}"));
+    let out = dir.join("out");
+    let mut o = RunOptions::new(out.clone());
+    o.progress = false;
+    run(&study, &o).unwrap();
+    out
+}
+
+#[test]
+fn ishigami_sobol_indices_match_the_closed_form() {
+    let dir = scratch("report-ishigami");
+    let u = "{ uniform: { lower: -3.141592653589793, upper: 3.141592653589793 } }";
+    let out = run_study(
+        &dir,
+        &format!(
+            "scene: {}\nsamples: 16384\nseed: 5\ndesign: saltelli\nparameters:\n  - {{ path: inputs.x1, distribution: {u} }}\n  - {{ path: inputs.x2, distribution: {u} }}\n  - {{ path: inputs.x3, distribution: {u} }}\n",
+            study_path("ishigami", "scene.yaml").display()
+        ),
+    );
+    let r = report::build(&out).unwrap();
+    let sobol = r.sensitivity[0]
+        .sobol
+        .as_ref()
+        .expect("Saltelli design gives indices");
+    assert_eq!(sobol.base_rows, 16384);
+    // exact: S = (0.3139, 0.4424, 0), ST = (0.5576, 0.4424, 0.2437)
+    let exact_first = [0.3139, 0.4424, 0.0];
+    let exact_total = [0.5576, 0.4424, 0.2437];
+    for j in 0..3 {
+        for (e, exact, kind) in [
+            (sobol.first[j], exact_first[j], "S"),
+            (sobol.total[j], exact_total[j], "ST"),
+        ] {
+            assert!(
+                (e.value - exact).abs() < 0.02,
+                "{kind}{}: {} vs {exact}",
+                j + 1,
+                e.value
+            );
+            assert!(
+                e.ci95.0 <= exact && exact <= e.ci95.1,
+                "{kind}{}: {exact} outside [{}, {}]",
+                j + 1,
+                e.ci95.0,
+                e.ci95.1
+            );
+            // an interval that says something: narrower than 0.1
+            assert!(e.ci95.1 - e.ci95.0 < 0.1, "{kind}{}: {:?}", j + 1, e.ci95);
+        }
+    }
+}
+
+#[test]
+fn linear_model_src_squared_are_the_variance_shares() {
+    let dir = scratch("report-linear");
+    let scene = dir.join("scene.yaml");
+    std::fs::write(
+        &scene,
+        "type: function\nname: lin\ninputs: [x1, x2, x3]\noutputs:\n  - { name: y, expression: \"1*x1 + 2*x2 + 3*x3\" }\n",
+    )
+    .unwrap();
+    let out = run_study(
+        &dir,
+        &format!(
+            "scene: {}\nsamples: 4096\nseed: 9\ndesign: lhs\nparameters:\n  - {{ path: inputs.x1, distribution: {{ normal: {{ mean: 1, sd: 1 }} }} }}\n  - {{ path: inputs.x2, distribution: {{ normal: {{ mean: 0, sd: 0.5 }} }} }}\n  - {{ path: inputs.x3, distribution: {{ normal: {{ mean: -2, sd: 2 }} }} }}\n",
+            scene.display()
+        ),
+    );
+    let r = report::build(&out).unwrap();
+    let (src, r2) = r.sensitivity[0].src.clone().unwrap();
+    // a² σ² = 1, 1, 36 of 38
+    for (j, share) in [1.0 / 38.0, 1.0 / 38.0, 36.0 / 38.0].iter().enumerate() {
+        assert!(
+            (src[j] * src[j] - share).abs() < 1e-2,
+            "SRC{}² = {} vs {share}",
+            j + 1,
+            src[j] * src[j]
+        );
+    }
+    assert!(r2 > 0.999, "R² = {r2}");
+    let (srrc, rr2) = r.sensitivity[0].srrc.clone().unwrap();
+    assert!(
+        srrc[2] > srrc[0] && srrc[0] > 0.0 && rr2 > 0.95,
+        "{srrc:?} {rr2}"
+    );
+    assert!(
+        r.sensitivity[0].sobol.is_none(),
+        "no Sobol' indices without Saltelli"
+    );
+}
+
+#[test]
+fn report_of_a_mechanism_study_is_one_self_contained_page() {
+    let dir = scratch("report-ball");
+    let out = run_study(
+        &dir,
+        &std::fs::read_to_string(study_path("bouncing-ball", "study.yaml"))
+            .unwrap()
+            .replace(
+                "scene: scene.yaml",
+                &format!(
+                    "scene: {}",
+                    study_path("bouncing-ball", "scene.yaml").display()
+                ),
+            )
+            .replace("samples: 256", "samples: 32"),
+    );
+    let r = report::build(&out).unwrap();
+    // per output: histogram, ECDF, running statistics, SRC², one scatter per input; plus
+    // two run-health figures
+    let (outputs, inputs) = (2, 2);
+    assert_eq!(r.figures.len(), outputs * (4 + inputs) + 2);
+    for f in &r.figures {
+        for ext in ["svg", "png"] {
+            let p = f.svg.with_extension(ext);
+            let len = std::fs::metadata(&p).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 1000, "{} is {len} bytes", p.display());
+        }
+    }
+    let png = std::fs::read(r.figures[0].svg.with_extension("png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let html = std::fs::read_to_string(&r.html).unwrap();
+    assert_eq!(
+        html.matches("<svg").count(),
+        r.figures.len(),
+        "every figure inlined"
+    );
+    for external in ["src=", "href=", "<link", "<script", "url(", "@import"] {
+        assert!(!html.contains(external), "the page references `{external}`");
+    }
+    for needle in [
+        "first_impact_time",
+        "apex_after_first_bounce",
+        "Fidelity",
+        "mc-study 0.1.0",
+        "wall time",
+        "Run health",
+        "Study file",
+    ] {
+        assert!(html.contains(needle), "missing `{needle}`");
+    }
+}
