@@ -77,7 +77,7 @@ impl Scale {
 fn tick_format(lo: f64, hi: f64) -> impl Fn(&f64) -> String {
     let span = (hi - lo).abs().max(f64::MIN_POSITIVE);
     let big = lo.abs().max(hi.abs());
-    let digits = (1.0 - (span / 5.0).log10()).ceil().clamp(0.0, 9.0) as usize;
+    let digits = (-(span / 5.0).log10()).ceil().clamp(0.0, 9.0) as usize;
     move |v: &f64| {
         if big >= 1e5 || (big > 0.0 && big < 1e-3) {
             format!("{v:.3e}")

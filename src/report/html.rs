@@ -73,7 +73,7 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     let _ = writeln!(s, "<h1>Study <code>{}</code></h1>", esc(&m.study_name));
     let _ = writeln!(s, "<table class=\"meta\">");
     for (k, v) in [
-        ("tool", format!("mc-study {}", esc(&version))),
+        ("tool", esc(&version)),
         (
             "design",
             format!("{}, seed {}, {} runs", esc(&m.design), m.seed, m.runs),
