@@ -450,7 +450,7 @@ fn converge(
         bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
     };
     let base = Fidelity::of(&scene.params);
-    let mut ladder = Ladder::around(&base, samples);
+    let mut ladder = Ladder::around(&scene.params, samples);
     if !hs.is_empty() {
         if let Some(h) = hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
             bail!("--h: step sizes must be positive, got {h}");
@@ -498,7 +498,12 @@ fn converge(
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let csv = dir.join("converge.csv");
     std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
-    eprintln!("runs: {}", csv.display());
+    let plot = mc_study::report::figures::save(&conv.figure(target), &dir.join("work-precision"))?;
+    eprintln!(
+        "runs: {}; work–precision plot: {} (and .png)",
+        csv.display(),
+        plot.display()
+    );
     match conv.recommend(target) {
         Some(f) => {
             println!(

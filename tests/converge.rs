@@ -16,7 +16,29 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     };
     let base = Fidelity::of(&scene.params);
     assert_eq!(base.h, 1e-4);
-    let mut ladder = Ladder::around(&base, 2);
+    let mut ladder = Ladder::around(&scene.params, 2);
+    // the full ladder also varies the tolerances, θ, the scheme, and holds the presets
+    let labels: Vec<String> = ladder.fidelities.iter().map(|f| f.label()).collect();
+    assert_eq!(labels.len(), 13, "{labels:#?}");
+    assert!(
+        labels.iter().any(|l| l.starts_with("fast: h=4e-4")),
+        "{labels:#?}"
+    );
+    assert!(
+        labels.iter().any(|l| l.starts_with("accurate: h=2.5e-5")),
+        "{labels:#?}"
+    );
+    assert!(labels.iter().any(|l| l.contains("θ=1 ")), "{labels:#?}");
+    assert!(
+        labels.iter().any(|l| l.contains("proj=1e-8")),
+        "{labels:#?}"
+    );
+    let fast = ladder
+        .fidelities
+        .iter()
+        .find(|f| f.preset.is_some())
+        .unwrap();
+    assert_eq!(fast.yaml(), "fidelity: { preset: fast }\n");
     // step sizes only, coarse to fine: 1e-3, 5e-4, 2e-4, 1e-4, 5e-5
     ladder.fidelities.truncate(5);
     let mut runs = 0;
@@ -54,6 +76,15 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
         }
     }
     assert!(conv.fidelities[f].yaml().contains("h: "));
+    // the work–precision plot: one point per rung and output
+    let fig = conv.figure(target);
+    assert_eq!(fig.series.len(), conv.outputs.len());
+    assert!(fig.series.iter().all(|(_, p)| p.len() == 5));
+    let dir = std::env::temp_dir().join(format!("mc-study-converge-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let svg = mc_study::report::figures::save(&fig, &dir.join("wp")).unwrap();
+    assert!(std::fs::metadata(&svg).unwrap().len() > 1000);
+    assert!(std::fs::metadata(dir.join("wp.png")).unwrap().len() > 1000);
     // the CSV: a header and one line per run and output
     let csv = conv.csv();
     assert_eq!(csv.lines().count(), 1 + 6 * 3 * conv.outputs.len());

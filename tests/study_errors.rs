@@ -134,3 +134,48 @@ fn wrong_units_unknown_design_and_unknown_keys() {
     let e = error_of("scene", "scene: scene.yaml", "scene: nowhere.yaml");
     assert!(e.contains("`scene`") && e.contains("cannot read"), "{e}");
 }
+
+/// Fidelity presets scale the scene's own settings; the explicit keys of the block win; an
+/// unknown preset names the field and the line.
+#[test]
+fn fidelity_presets_and_an_unknown_preset() {
+    use mc_study::study::subject::Subject;
+    let load = |tag: &str, to: &str| {
+        let text = std::fs::read_to_string(study_path("bouncing-ball", "study.yaml")).unwrap();
+        let scene = study_path("bouncing-ball", "scene.yaml");
+        let text = text
+            .replace("fidelity:\n  h: 0.1 ms", to)
+            .replace("scene: scene.yaml", &format!("scene: {}", scene.display()));
+        let f = scratch(&format!("study-preset-{tag}")).join("study.yaml");
+        std::fs::write(&f, &text).unwrap();
+        let study = Study::load(&f, None).unwrap();
+        let Subject::Mechanism(scene) = &study.subject else {
+            panic!("a mechanism")
+        };
+        (scene.params.h, scene.params.solver.tolerance)
+    };
+    // the scene itself: h = 1 ms, solver tolerance 1e-10 (the engine default)
+    let (h, tol) = load("none", "");
+    assert_eq!((h, tol), (1e-3, 1e-10));
+    assert_eq!(load("fast", "fidelity: { preset: fast }"), (4e-3, 1e-8));
+    assert_eq!(load("balanced", "fidelity: { preset: balanced }"), (h, tol));
+    assert_eq!(
+        load("accurate", "fidelity: { preset: accurate }"),
+        (2.5e-4, 1e-12)
+    );
+    assert_eq!(
+        load("override", "fidelity: { preset: accurate, h: 0.1 ms }"),
+        (1e-4, 1e-12)
+    );
+    let e = error_of(
+        "preset",
+        "fidelity:\n  h: 0.1 ms",
+        "fidelity:\n  preset: quick",
+    );
+    assert_names(
+        &e,
+        "fidelity.preset",
+        line_of("fidelity:") + 1,
+        "unknown preset `quick` (available: fast, balanced, accurate)",
+    );
+}

@@ -7,5 +7,5 @@ pub mod params;
 pub mod projection;
 pub mod simulation;
 
-pub use params::{IntegrationParameters, Scheme};
+pub use params::{IntegrationParameters, Preset, Scheme};
 pub use simulation::{RunStats, SimError, Simulation, StepReport};

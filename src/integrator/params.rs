@@ -39,6 +39,50 @@ impl Scheme {
     }
 }
 
+/// Fidelity presets of a study (`fidelity: { preset: fast }`), relative to the scene's own
+/// integrator settings, which its author chose for that mechanism: a step that suits a
+/// bouncing ball is 100× too coarse for a latch. Their measured error and cost on the
+/// bundled scenes are in the README (`mc-study converge` prints them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// h × 4 and the contact-solver tolerance × 100: a quick look at a study.
+    Fast,
+    /// The scene as written.
+    Balanced,
+    /// h / 4 and the contact-solver tolerance / 100 (not below 1e-12).
+    Accurate,
+}
+
+impl Preset {
+    pub const ALL: [Preset; 3] = [Preset::Fast, Preset::Balanced, Preset::Accurate];
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Preset::Fast => "fast",
+            Preset::Balanced => "balanced",
+            Preset::Accurate => "accurate",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<Preset> {
+        Preset::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    pub fn apply(&self, p: &mut IntegrationParameters) {
+        match self {
+            Preset::Fast => {
+                p.h *= 4.0;
+                p.solver.tolerance *= 100.0;
+            }
+            Preset::Balanced => {}
+            Preset::Accurate => {
+                p.h /= 4.0;
+                p.solver.tolerance = (p.solver.tolerance / 100.0).max(1e-12);
+            }
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntegrationParameters {
     /// Time step h (s). Default 1e-4 s, the Siconos mechanisms toolbox default.

@@ -8,6 +8,12 @@ use std::path::{Path, PathBuf};
 
 const SIZE: (u32, u32) = (720, 440);
 const FONT: &str = "sans-serif";
+/// Text sizes in pixels of the 720 × 440 figure, which the page shows 580 wide: plotters
+/// draws a size-s font at s/1.24 px, so the tick labels read at about 11 px on the page.
+const TITLE: f64 = 22.0;
+const AXIS: f64 = 19.0;
+const TICKS: f64 = 17.0;
+const SMALL: f64 = 16.0;
 const BLUE: RGBColor = RGBColor(43, 76, 126);
 const ORANGE: RGBColor = RGBColor(221, 132, 82);
 const GREY: RGBColor = RGBColor(120, 120, 120);
@@ -170,10 +176,10 @@ impl Figure for HistogramFigure<'_> {
         let y_hi = density.iter().fold(pdf_peak, |a, &b| a.max(b)) * 1.12;
         let y_hi = if y_hi > 0.0 { y_hi } else { 1.0 };
         let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, 18))
+            .caption(&self.title, (FONT, TITLE))
             .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
+            .x_label_area_size(52)
+            .y_label_area_size(88)
             .build_cartesian_2d(x_lo..x_hi, 0.0..y_hi)?;
         chart
             .configure_mesh()
@@ -183,8 +189,8 @@ impl Figure for HistogramFigure<'_> {
             .y_label_formatter(&tick_format(0.0, y_hi))
             .y_labels(6)
             .x_labels(7)
-            .label_style((FONT, 13))
-            .axis_desc_style((FONT, 14))
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXIS))
             .light_line_style(WHITE)
             .draw()?;
         chart
@@ -241,7 +247,7 @@ impl Figure for HistogramFigure<'_> {
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(GREY)
-            .label_font((FONT, 12))
+            .label_font((FONT, SMALL))
             .position(SeriesLabelPosition::UpperRight)
             .draw()?;
         Ok(())
@@ -266,10 +272,10 @@ impl Figure for EcdfFigure<'_> {
             v.last().copied().unwrap_or(1.0),
         );
         let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, 18))
+            .caption(&self.title, (FONT, TITLE))
             .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
+            .x_label_area_size(52)
+            .y_label_area_size(72)
             .build_cartesian_2d(lo..hi, 0.0..1.0)?;
         chart
             .configure_mesh()
@@ -277,8 +283,8 @@ impl Figure for EcdfFigure<'_> {
             .y_desc("fraction of samples ≤ x")
             .x_label_formatter(&tick_format(lo, hi))
             .x_labels(7)
-            .label_style((FONT, 13))
-            .axis_desc_style((FONT, 14))
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         let n = v.len().max(1) as f64;
         let mut pts = vec![(lo, 0.0)];
@@ -320,10 +326,10 @@ impl Figure for ScatterFigure<'_> {
         let (x0, x1) = range(|p| p.0);
         let (y0, y1) = range(|p| p.1);
         let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, 17))
+            .caption(&self.title, (FONT, TITLE))
             .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(80)
+            .x_label_area_size(52)
+            .y_label_area_size(88)
             .build_cartesian_2d(x0..x1, y0..y1)?;
         chart
             .configure_mesh()
@@ -333,8 +339,8 @@ impl Figure for ScatterFigure<'_> {
             .y_label_formatter(&tick_format(y0, y1))
             .x_labels(6)
             .y_labels(6)
-            .label_style((FONT, 13))
-            .axis_desc_style((FONT, 14))
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         let radius = if pts.len() > 5000 { 1 } else { 2 };
         chart.draw_series(
@@ -387,10 +393,10 @@ impl Figure for BarsFigure {
         let y_lo = if y_lo < 0.0 { y_lo * 1.15 } else { 0.0 };
         let inputs = self.inputs.clone();
         let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, 17))
+            .caption(&self.title, (FONT, TITLE))
             .margin(12)
             .x_label_area_size(55)
-            .y_label_area_size(60)
+            .y_label_area_size(72)
             .build_cartesian_2d(0.0..n as f64, y_lo..y_hi)?;
         chart
             .configure_mesh()
@@ -406,8 +412,8 @@ impl Figure for BarsFigure {
             })
             .y_desc(&self.y_desc)
             .y_label_formatter(&|v| format!("{v:.2}"))
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 14))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         let m = self.series.len().max(1) as f64;
         let colors = [BLUE, ORANGE];
@@ -441,7 +447,7 @@ impl Figure for BarsFigure {
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(GREY)
-            .label_font((FONT, 12))
+            .label_font((FONT, SMALL))
             .position(SeriesLabelPosition::UpperRight)
             .draw()?;
         Ok(())
@@ -484,7 +490,7 @@ impl Figure for ConvergenceFigure<'_> {
             .collect();
         let shown = &shown[..];
         let (title_area, rest) = area.split_vertically(30);
-        title_area.titled(&self.title, (FONT, 17))?;
+        title_area.titled(&self.title, (FONT, TITLE))?;
         let (top, bottom) = rest.split_vertically(rest.dim_in_pixel().1 / 2);
         let n_max = rows.len().max(2) as f64;
         let band = |r: &(f64, f64, f64)| 1.96 * r.2 / r.0.sqrt();
@@ -495,15 +501,15 @@ impl Figure for ConvergenceFigure<'_> {
         let mut c1 = ChartBuilder::on(&top)
             .margin(8)
             .x_label_area_size(20)
-            .y_label_area_size(80)
+            .y_label_area_size(88)
             .build_cartesian_2d(1.0..n_max, lo..hi)?;
         c1.configure_mesh()
             .y_desc(format!("mean{}", unit_suffix(&self.scale)))
             .y_label_formatter(&tick_format(lo, hi))
             .y_labels(5)
             .x_label_formatter(&|_| String::new())
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, TICKS))
             .draw()?;
         c1.draw_series(std::iter::once(Polygon::new(
             shown
@@ -523,8 +529,8 @@ impl Figure for ConvergenceFigure<'_> {
         let (slo, shi) = padded(slo, shi);
         let mut c2 = ChartBuilder::on(&bottom)
             .margin(8)
-            .x_label_area_size(40)
-            .y_label_area_size(80)
+            .x_label_area_size(48)
+            .y_label_area_size(88)
             .build_cartesian_2d(1.0..n_max, slo..shi)?;
         c2.configure_mesh()
             .x_desc("samples")
@@ -532,8 +538,8 @@ impl Figure for ConvergenceFigure<'_> {
             .y_label_formatter(&tick_format(slo, shi))
             .y_labels(5)
             .x_label_formatter(&|v| format!("{v:.0}"))
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 13))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, TICKS))
             .draw()?;
         c2.draw_series(LineSeries::new(
             shown.iter().map(|r| (r.0, r.2)),
@@ -567,10 +573,10 @@ impl Figure for LogHistogramFigure<'_> {
         let (x0, x1) = padded(lo, lo + width * counts.len() as f64);
         let y1 = counts.iter().copied().max().unwrap_or(1).max(1) as f64 * 1.1;
         let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, 17))
+            .caption(&self.title, (FONT, TITLE))
             .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
+            .x_label_area_size(52)
+            .y_label_area_size(72)
             .build_cartesian_2d(x0..x1, 0.0..y1)?;
         chart
             .configure_mesh()
@@ -578,13 +584,104 @@ impl Figure for LogHistogramFigure<'_> {
             .y_desc("samples")
             .x_label_formatter(&tick_format(x0, x1))
             .y_label_formatter(&|v| format!("{v:.0}"))
-            .label_style((FONT, 12))
-            .axis_desc_style((FONT, 14))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         chart.draw_series(counts.iter().enumerate().map(|(i, &c)| {
             let a = lo + width * i as f64;
             Rectangle::new([(a, 0.0), (a + width, c as f64)], GREY.mix(0.6).filled())
         }))?;
+        Ok(())
+    }
+}
+
+/// A log-axis tick label shown only at the given mantissas of each decade (1, 2, 5 × 10ᵏ),
+/// so that plotters' dense logarithmic ticks do not overlap.
+fn decade_tick(x: f64, mantissas: &[f64]) -> String {
+    let k = x.log10().floor();
+    let m = x / 10f64.powf(k);
+    if !mantissas.iter().any(|&t| (m - t).abs() < 1e-6 * t) {
+        return String::new();
+    }
+    if (-3.0..=4.0).contains(&k) {
+        format!("{}", (x * 1e6).round() / 1e6)
+    } else {
+        format!("{x:.0e}")
+    }
+}
+
+/// Work–precision diagram of `mc-study converge`: each output's error against the wall
+/// time per sample, one point per fidelity, both axes logarithmic, with the target.
+pub struct WorkPrecisionFigure {
+    pub title: String,
+    pub y_desc: String,
+    /// (output name, [(ms per sample, error)]) per output.
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
+    pub target: f64,
+}
+
+impl Figure for WorkPrecisionFigure {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        // a zero error (an output the rung reproduces exactly) is drawn at the floor
+        let finite: Vec<(f64, f64)> = self
+            .series
+            .iter()
+            .flat_map(|(_, p)| p.iter().copied())
+            .filter(|(c, e)| c.is_finite() && *c > 0.0 && e.is_finite() && *e > 0.0)
+            .collect();
+        let (mut c0, mut c1, mut e0, mut e1) = (f64::MAX, f64::MIN, self.target, self.target);
+        for &(c, e) in &finite {
+            (c0, c1, e0, e1) = (c0.min(c), c1.max(c), e0.min(e), e1.max(e));
+        }
+        if finite.is_empty() {
+            (c0, c1) = (1.0, 10.0);
+        }
+        let floor = e0 / 2.0;
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, TITLE))
+            .margin(12)
+            .x_label_area_size(52)
+            .y_label_area_size(88)
+            .build_cartesian_2d(
+                (c0 / 1.3..c1 * 1.3).log_scale(),
+                (floor / 1.5..e1 * 2.0).log_scale(),
+            )?;
+        chart
+            .configure_mesh()
+            .x_desc("wall time per sample [ms]")
+            .y_desc(&self.y_desc)
+            .x_label_formatter(&|x| decade_tick(*x, &[1.0, 2.0, 5.0]))
+            .y_label_formatter(&|y| decade_tick(*y, &[1.0]))
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXIS))
+            .draw()?;
+        chart
+            .draw_series(LineSeries::new(
+                [(c0 / 1.3, self.target), (c1 * 1.3, self.target)],
+                RED.stroke_width(2),
+            ))?
+            .label(format!("target {:.0e}", self.target))
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], RED.stroke_width(2)));
+        for (i, (name, points)) in self.series.iter().enumerate() {
+            let colour = Palette99::pick(i).to_rgba();
+            let pts: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|(c, e)| c.is_finite() && *c > 0.0 && e.is_finite())
+                .map(|&(c, e)| (c, e.max(floor)))
+                .collect();
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?
+                .label(name.as_str())
+                .legend(move |(x, y)| Circle::new((x + 7, y), 4, colour.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, SMALL))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
         Ok(())
     }
 }

@@ -4,7 +4,7 @@ use super::error::{line, SceneError};
 use super::schema::*;
 use super::units::{Dim, Quantity};
 use super::Scene;
-use crate::integrator::{IntegrationParameters, Scheme};
+use crate::integrator::{IntegrationParameters, Preset, Scheme};
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
@@ -827,6 +827,19 @@ pub fn apply_integrator(
     p: &mut IntegrationParameters,
     prefix: &str,
 ) -> R<()> {
+    if let Some(name) = &spec.preset {
+        let preset = Preset::parse(&name.value).ok_or_else(|| {
+            SceneError::at(
+                line(name),
+                format!("{prefix}.preset"),
+                format!(
+                    "unknown preset `{}` (available: fast, balanced, accurate)",
+                    name.value
+                ),
+            )
+        })?;
+        preset.apply(p);
+    }
     if let Some(h) = &spec.h {
         p.h = positive(h, Dim::TIME, &format!("{prefix}.h"))?;
     }

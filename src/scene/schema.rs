@@ -97,6 +97,9 @@ pub struct DriveSpec {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
+    /// `fast`, `balanced` or `accurate`: scales the scene's own settings (`Preset`), before
+    /// the other keys of the block apply.
+    pub preset: Option<Name>,
     pub h: Option<Q>,
     pub theta: Option<Q>,
     pub gamma: Option<Q>,

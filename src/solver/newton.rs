@@ -123,3 +123,43 @@ pub fn global_newton(
     }
     (natural_map_error(p, r) <= tolerance).then_some(max_iterations)
 }
+
+/// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r) (`contact_solvers.md` §4), each
+/// solved by the global Newton method, whose Jacobian the shift η makes nonsingular. For
+/// the jammed, rank-deficient problems where Gauss–Seidel stalls and the plain Newton's line
+/// search stops (a journal wedged between the two rings of a clearance joint at μ = 1), the
+/// iterates move along the soft directions of W that both miss. Returns the iterations
+/// used if the *original* problem reached `tolerance`.
+pub fn proximal_newton(
+    p: &Fc3d,
+    r: &mut DVector<f64>,
+    tolerance: f64,
+    max_outer: usize,
+) -> Option<usize> {
+    let n = p.w.nrows();
+    let mean_diag = p.w.diagonal().mean().max(f64::MIN_POSITIVE);
+    let mut total = 0;
+    for &rel in &[1e-3, 1e-2] {
+        let eta = rel * mean_diag;
+        let mut w = p.w.clone();
+        for k in 0..n {
+            w[(k, k)] += eta;
+        }
+        let mut trial = r.clone();
+        for _ in 0..max_outer {
+            let q = p.q - &trial * eta;
+            let sub = Fc3d {
+                w: &w,
+                q: &q,
+                mu: p.mu,
+            };
+            let it = global_newton(&sub, &mut trial, 0.01 * tolerance, 50)?;
+            total += it + 1;
+            if natural_map_error(p, &trial) <= tolerance {
+                *r = trial;
+                return Some(total);
+            }
+        }
+    }
+    None
+}

@@ -6,7 +6,7 @@
 use super::fc3d::{
     contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus,
 };
-use super::newton::global_newton;
+use super::newton::{global_newton, proximal_newton};
 use nalgebra::{DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
@@ -79,11 +79,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
         if residual < 0.9 * best {
             (best, best_sweep) = (residual, sweep);
         } else if sweep - best_sweep > STAGNATION_SWEEPS {
-            return SolverStatus {
-                converged: false,
-                iterations: sweep,
-                residual,
-            };
+            return last_resort(p, r, opts, sweep, residual);
         }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
         // Newton method from the current iterate, falling back to more sweeps if it fails.
@@ -99,10 +95,37 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             }
         }
     }
-    SolverStatus {
-        converged: false,
-        iterations: opts.max_sweeps,
-        residual,
+    last_resort(p, r, opts, opts.max_sweeps, residual)
+}
+
+/// NSGS and the global Newton both failed: try the global Newton again from the sweeps'
+/// iterate, then proximal-point iterations; report the failure if those fail too.
+fn last_resort(
+    p: &Fc3d,
+    r: &mut DVector<f64>,
+    opts: &NsgsOptions,
+    sweeps: usize,
+    residual: f64,
+) -> SolverStatus {
+    let mut trial = r.clone();
+    let found = global_newton(p, &mut trial, opts.tolerance, 100).or_else(|| {
+        trial.copy_from(r);
+        proximal_newton(p, &mut trial, opts.tolerance, 50)
+    });
+    match found {
+        Some(it) => {
+            *r = trial;
+            SolverStatus {
+                converged: true,
+                iterations: sweeps + it,
+                residual: natural_map_error(p, r),
+            }
+        }
+        None => SolverStatus {
+            converged: false,
+            iterations: sweeps,
+            residual,
+        },
     }
 }
 

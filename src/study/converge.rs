@@ -7,15 +7,19 @@
 
 use super::subject::Subject;
 use super::Study;
-use crate::integrator::{IntegrationParameters, Scheme};
+use crate::integrator::{IntegrationParameters, Preset, Scheme};
 use std::fmt::Write;
 
-/// One rung of the ladder.
+/// One rung of the ladder: the integrator settings that trade accuracy for speed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fidelity {
     pub h: f64,
     pub scheme: Scheme,
+    pub theta: f64,
     pub solver_tolerance: f64,
+    pub projection_tolerance: f64,
+    /// The preset this rung is, if any (`fast`, `balanced`, `accurate`).
+    pub preset: Option<Preset>,
 }
 
 impl Fidelity {
@@ -23,33 +27,58 @@ impl Fidelity {
         Fidelity {
             h: p.h,
             scheme: p.scheme,
+            theta: p.theta,
             solver_tolerance: p.solver.tolerance,
+            projection_tolerance: p.projection_tolerance,
+            preset: None,
+        }
+    }
+
+    /// The rung of a preset applied to the scene's settings `p`.
+    pub fn preset(preset: Preset, p: &IntegrationParameters) -> Fidelity {
+        let mut q = p.clone();
+        preset.apply(&mut q);
+        Fidelity {
+            preset: Some(preset),
+            ..Fidelity::of(&q)
         }
     }
 
     fn apply(&self, p: &mut IntegrationParameters) {
         p.h = self.h;
         p.scheme = self.scheme;
+        p.theta = self.theta;
         p.solver.tolerance = self.solver_tolerance;
+        p.projection_tolerance = self.projection_tolerance;
     }
 
     pub fn label(&self) -> String {
+        let preset = self
+            .preset
+            .map_or(String::new(), |p| format!("{}: ", p.name()));
         format!(
-            "h={:e} {} tol={:e}",
+            "{preset}h={:e} {} θ={} tol={:e} proj={:e}",
             self.h,
             self.scheme.name(),
-            self.solver_tolerance
+            self.theta,
+            self.solver_tolerance,
+            self.projection_tolerance
         )
     }
 
     /// The study YAML block selecting this fidelity.
     pub fn yaml(&self) -> String {
-        format!(
-            "fidelity:\n  h: {:e}\n  scheme: {}\n  solver: {{ tolerance: {:e} }}\n",
-            self.h,
-            self.scheme.name(),
-            self.solver_tolerance
-        )
+        match self.preset {
+            Some(p) => format!("fidelity: {{ preset: {} }}\n", p.name()),
+            None => format!(
+                "fidelity:\n  h: {:e}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {:e} }}\n  projection: {{ tolerance: {:e} }}\n",
+                self.h,
+                self.scheme.name(),
+                self.theta,
+                self.solver_tolerance,
+                self.projection_tolerance
+            ),
+        }
     }
 }
 
@@ -63,10 +92,12 @@ pub struct Ladder {
 }
 
 impl Ladder {
-    /// The default ladder around the study's fidelity (h₀, scheme, tolerance τ₀): h₀ × {10,
-    /// 5, 2, 1, ½} at τ₀; τ₀ × 100 and τ₀ / 100 at h₀; the other schemes at h₀. The
-    /// reference is h₀ / 10 at min(τ₀ / 100, 1e-8).
-    pub fn around(base: &Fidelity, samples: u64) -> Ladder {
+    /// The default ladder around the scene's settings `p` (h₀, scheme, θ₀, tolerance τ₀,
+    /// projection tolerance π₀): h₀ × {10, 5, 2, 1, ½}; τ₀ × 100 and τ₀ / 100; π₀ × 100;
+    /// θ = 1 if θ₀ ≠ 1; the other schemes; the `fast` and `accurate` presets. The reference
+    /// is h₀ / 10 at min(τ₀ / 100, 1e-8).
+    pub fn around(p: &IntegrationParameters, samples: u64) -> Ladder {
+        let base = Fidelity::of(p);
         let mut fidelities: Vec<Fidelity> = [10.0, 5.0, 2.0, 1.0, 0.5]
             .iter()
             .map(|k| Fidelity {
@@ -77,6 +108,16 @@ impl Ladder {
         for tol in [base.solver_tolerance * 100.0, base.solver_tolerance / 100.0] {
             fidelities.push(Fidelity {
                 solver_tolerance: tol,
+                ..base.clone()
+            });
+        }
+        fidelities.push(Fidelity {
+            projection_tolerance: base.projection_tolerance * 100.0,
+            ..base.clone()
+        });
+        if base.theta != 1.0 {
+            fidelities.push(Fidelity {
+                theta: 1.0,
                 ..base.clone()
             });
         }
@@ -91,6 +132,9 @@ impl Ladder {
                     ..base.clone()
                 });
             }
+        }
+        for preset in [Preset::Fast, Preset::Accurate] {
+            fidelities.push(Fidelity::preset(preset, p));
         }
         Ladder {
             fidelities,
@@ -233,7 +277,7 @@ impl Convergence {
             "{unit}; reference: {}",
             self.fidelities.last().unwrap().label()
         );
-        let _ = write!(s, "{:<46} {:>10}", "fidelity", "ms/sample");
+        let _ = write!(s, "{:<72} {:>10}", "fidelity", "ms/sample");
         for (name, _) in &self.outputs {
             let _ = write!(s, " {:>12}", short(name));
         }
@@ -241,7 +285,7 @@ impl Convergence {
         for f in 0..self.fidelities.len() {
             let _ = write!(
                 s,
-                "{:<46} {:>10.1}",
+                "{:<72} {:>10.1}",
                 self.fidelities[f].label(),
                 self.cost(f)
             );
@@ -260,7 +304,7 @@ impl Convergence {
     /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "h,scheme,solver_tolerance,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+            "h,scheme,theta,solver_tolerance,projection_tolerance,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
         );
         let reference = self.reference();
         for (f, fid) in self.fidelities.iter().enumerate() {
@@ -269,10 +313,13 @@ impl Convergence {
                     let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
                     let _ = writeln!(
                         s,
-                        "{:e},{},{:e},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        "{:e},{},{},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
                         fid.h,
                         fid.scheme.name(),
+                        fid.theta,
                         fid.solver_tolerance,
+                        fid.projection_tolerance,
+                        fid.preset.map_or("", |p| p.name()),
                         self.sample_names[j],
                         name,
                         unit,
@@ -286,6 +333,31 @@ impl Convergence {
             }
         }
         s
+    }
+}
+
+impl Convergence {
+    /// The work–precision diagram: every output's error against the cost, per fidelity.
+    pub fn figure(&self, target: f64) -> crate::report::figures::WorkPrecisionFigure {
+        let n = self.fidelities.len() - 1;
+        crate::report::figures::WorkPrecisionFigure {
+            title: "work–precision: error against cost per fidelity".into(),
+            y_desc: if self.sigma.is_some() {
+                "error / Monte-Carlo σ".into()
+            } else {
+                "relative error".into()
+            },
+            series: self
+                .outputs
+                .iter()
+                .enumerate()
+                .map(|(k, (name, _))| {
+                    let pts = (0..n).map(|f| (self.cost(f), self.error(f, k))).collect();
+                    (name.clone(), pts)
+                })
+                .collect(),
+            target,
+        }
     }
 }
 
