@@ -9,6 +9,7 @@
 
 pub mod drawing;
 pub mod expr;
+pub mod extremes;
 pub mod integrator;
 pub mod math;
 pub mod mechanics;
