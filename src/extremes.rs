@@ -154,9 +154,9 @@ pub fn clearance_pendulum(c: f64, h: f64, mu: f64, e: f64, t: f64, max_steps: u6
     Case {
         group: "clearance pendulum",
         label: format!(
-            "c = {}, h = {h:e}, μ = {mu}, e = {e}, {} s",
+            "c = {}, h = {h:e}, μ = {mu}, e = {e}, {}",
             length(c),
-            steps as f64 * h
+            seconds(steps as f64 * h)
         ),
         scene: s,
         steps,
@@ -177,7 +177,7 @@ pub fn ideal_pendulum(h: f64, t: f64, max_steps: u64) -> Case {
     let steps = ((t / h).round() as u64).clamp(1, max_steps);
     Case {
         group: "ideal pendulum",
-        label: format!("h = {h:e}, {} s", steps as f64 * h),
+        label: format!("h = {h:e}, {}", seconds(steps as f64 * h)),
         scene: s,
         steps,
         energy_growth_allowed: Some(1e-3),
@@ -313,6 +313,11 @@ bodies:
         energy_growth_allowed: Some(1e-9),
         energy_scale: None,
     }
+}
+
+/// A duration in seconds for labels, without round-off digits.
+fn seconds(t: f64) -> String {
+    format!("{} s", (t * 1e9).round() / 1e9)
 }
 
 /// A length in µm or mm for labels.

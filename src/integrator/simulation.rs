@@ -52,9 +52,9 @@ pub struct RunStats {
 pub enum SimError {
     #[error("invalid integration parameter `{0}`: {1}")]
     Parameters(&'static str, String),
-    #[error("the state became non-finite (NaN or infinite) at t = {t} s, step {step}")]
+    #[error("the state became non-finite (NaN or infinite) at t = {t:.9} s, step {step}")]
     NonFinite { t: f64, step: u64 },
-    #[error("modelling error at t = {t} s: {message}")]
+    #[error("modelling error at t = {t:.9} s: {message}")]
     Geometry { t: f64, message: String },
 }
 

@@ -10,6 +10,13 @@ use super::Study;
 use crate::integrator::{IntegrationParameters, Preset, Scheme};
 use std::fmt::Write;
 
+/// A setting in exponent form without the round-off of the ladder's products (1e-4, not
+/// 9.999999999999999e-5).
+fn exp_form(x: f64) -> String {
+    let rounded: f64 = format!("{x:.6e}").parse().unwrap_or(x);
+    format!("{rounded:e}")
+}
+
 /// One rung of the ladder: the integrator settings that trade accuracy for speed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fidelity {
@@ -71,12 +78,12 @@ impl Fidelity {
         match self.preset {
             Some(p) => format!("fidelity: {{ preset: {} }}\n", p.name()),
             None => format!(
-                "fidelity:\n  h: {:e}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {:e} }}\n  projection: {{ tolerance: {:e} }}\n",
-                self.h,
+                "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n",
+                exp_form(self.h),
                 self.scheme.name(),
                 self.theta,
-                self.solver_tolerance,
-                self.projection_tolerance
+                exp_form(self.solver_tolerance),
+                exp_form(self.projection_tolerance)
             ),
         }
     }
