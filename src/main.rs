@@ -76,15 +76,17 @@ enum Command {
     },
     /// Measures the accuracy–cost trade of the study's fidelity: the nominal sample and
     /// `--samples` design samples run over a ladder (h₀ × 10, 5, 2, 1, ½; solver tolerance
-    /// × 100 and ÷ 100; the other schemes) against a reference at h₀/10. Errors are in
-    /// units of each output's Monte-Carlo σ when a result directory with summary.json is
-    /// found (`--results`, default the study's output directory), else relative. Prints
-    /// the table, writes OUT/converge.csv and recommends the cheapest fidelity under the
-    /// target as a `fidelity` block.
+    /// × 100 and ÷ 100; projection tolerance × 100; θ = 1; the other schemes; the `fast`
+    /// and `accurate` presets) against a reference at h₀/10. Errors are in units of each
+    /// output's Monte-Carlo σ when a result directory with summary.json is found
+    /// (`--results`, default the study's output directory), else relative. Prints the
+    /// table, writes OUT/converge.csv and the work–precision plot OUT/work-precision.svg
+    /// (and .png), and recommends the cheapest fidelity under the target as a `fidelity`
+    /// block.
     Converge {
         /// Study YAML file.
         study: PathBuf,
-        /// Where converge.csv goes (default: <study output>/converge).
+        /// Where converge.csv and the plot go (default: <study output>/converge).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Design samples besides the nominal one.
