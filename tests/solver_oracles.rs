@@ -217,3 +217,37 @@ fn frictionless_case_equals_the_lcp_solution() {
         }
     }
 }
+
+/// The last resort for rank-deficient problems: two coincident contacts on a point mass
+/// (W = [[I, I], [I, I]] / m, singular), pressed at 1 m/s and sliding at 0.3 m/s. Only the
+/// sum of the two impulses is determined, and it is known in closed form: m·(1, −0.3, 0)
+/// when μ = 0.5 sticks, m·(1, −μ, 0) when μ = 0.2 slips. Proximal-point Newton must reach
+/// the tolerance and that sum, from a start far from it.
+#[test]
+fn proximal_newton_solves_coincident_contacts_to_the_closed_form() {
+    use mc_study::solver::newton::proximal_newton;
+    let m = 2.0;
+    let mut w = DMatrix::zeros(6, 6);
+    for i in 0..3 {
+        for (a, b) in [(0, 0), (0, 3), (3, 0), (3, 3)] {
+            w[(a + i, b + i)] = 1.0 / m;
+        }
+    }
+    let q = DVector::from_vec(vec![-1.0, 0.3, 0.0, -1.0, 0.3, 0.0]);
+    for (mu, rt) in [(0.5, -0.3), (0.2, -0.2)] {
+        let mus = [mu, mu];
+        let p = Fc3d {
+            w: &w,
+            q: &q,
+            mu: &mus,
+        };
+        let mut r = DVector::from_vec(vec![5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        proximal_newton(&p, &mut r, 1e-10, 50).expect("converges");
+        assert!(natural_map_error(&p, &r) <= 1e-10);
+        check_solution(&w, &q, &mus, &r, 1e-8);
+        let total = [r[0] + r[3], r[1] + r[4], r[2] + r[5]];
+        assert!((total[0] - m).abs() < 1e-8, "μ = {mu}: {total:?}");
+        assert!((total[1] - rt * m).abs() < 1e-8, "μ = {mu}: {total:?}");
+        assert!(total[2].abs() < 1e-8, "μ = {mu}: {total:?}");
+    }
+}
