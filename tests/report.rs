@@ -47,6 +47,20 @@ fn ishigami_sobol_indices_match_the_closed_form() {
     let exact_first = [0.3139, 0.4424, 0.0];
     let exact_total = [0.5576, 0.4424, 0.2437];
     for j in 0..3 {
+        println!(
+            "x{}: S {:.4} [{:.4}, {:.4}] (exact {}), ST {:.4} [{:.4}, {:.4}] (exact {})",
+            j + 1,
+            sobol.first[j].value,
+            sobol.first[j].ci95.0,
+            sobol.first[j].ci95.1,
+            exact_first[j],
+            sobol.total[j].value,
+            sobol.total[j].ci95.0,
+            sobol.total[j].ci95.1,
+            exact_total[j]
+        );
+    }
+    for j in 0..3 {
         for (e, exact, kind) in [
             (sobol.first[j], exact_first[j], "S"),
             (sobol.total[j], exact_total[j], "ST"),
@@ -89,6 +103,15 @@ fn linear_model_src_squared_are_the_variance_shares() {
     let r = report::build(&out).unwrap();
     let (src, r2) = r.sensitivity[0].src.clone().unwrap();
     // a² σ² = 1, 1, 36 of 38
+    println!(
+        "SRC² = {:.4}, {:.4}, {:.4} (exact {:.4}, {:.4}, {:.4}), R² = {r2:.6}",
+        src[0] * src[0],
+        src[1] * src[1],
+        src[2] * src[2],
+        1.0 / 38.0,
+        1.0 / 38.0,
+        36.0 / 38.0
+    );
     for (j, share) in [1.0 / 38.0, 1.0 / 38.0, 36.0 / 38.0].iter().enumerate() {
         assert!(
             (src[j] * src[j] - share).abs() < 1e-2,

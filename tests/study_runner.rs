@@ -257,6 +257,7 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
         "a sample lost or written twice"
     );
     assert_eq!(results(&out), results(&reference));
+    println!("{kills} of 6 runs killed with SIGKILL, then resumed: {n} samples, each in exactly one part, rows identical to an uninterrupted run");
 }
 
 /// Ctrl-C (SIGINT) stops starting samples, writes those done and exits with 130; the rerun

@@ -51,6 +51,13 @@ fn moments_and_quantiles_match_closed_forms_within_monte_carlo_error() {
     let y = &m.summary.outputs[0];
     assert_eq!(y.count, n);
     let (mu, sigma) = (7.0, 1.5);
+    println!(
+        "y: mean {:.4} (exact {mu}, SE {:.4}), sd {:.4} (exact {sigma}), quantiles {:?}",
+        y.mean,
+        sigma / nf.sqrt(),
+        y.sd,
+        y.quantiles
+    );
     assert!(
         (y.mean - mu).abs() < 4.0 * sigma / nf.sqrt(),
         "mean {}",
