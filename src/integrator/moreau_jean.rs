@@ -97,10 +97,22 @@ pub fn velocity_step(
 
     let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
     let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
-    // Newton impact law: the shift e·U_N,k on the normal rows
+    // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
+    // keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
+    // never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
+    // it asks U_N,k+1 ≥ 0 only, as an ordinary contact would: requiring the body to move
+    // back could contradict a contact on the other side (the journal's closest point), and
+    // the projection removes what remains.
     let shift: Vec<f64> = active
         .iter()
-        .map(|c| c.e * c.local_velocity(v0.as_slice()).x)
+        .map(|c| {
+            let u0 = c.local_velocity(v0.as_slice()).x;
+            if c.gap_law {
+                ((c.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+            } else {
+                c.e * u0
+            }
+        })
         .collect();
     let mut r = DVector::zeros(3 * active.len());
     for (i, p) in warm.iter().enumerate() {

@@ -58,8 +58,58 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
         .collect()
 }
 
+/// Rows and violations of the constraints at `poses`: the joint rows, then the contacts'.
+struct Evaluated {
+    rows: Vec<BilateralRow>,
+    njoint: usize,
+    /// Largest violation (the convergence test) and the sum of squares (the merit).
+    max: f64,
+    squares: f64,
+}
+
+fn evaluate_rows(
+    model: &Model,
+    t: f64,
+    poses: &[Pose],
+    contact_rows: &dyn Fn(&[Pose]) -> Vec<BilateralRow>,
+    mode: ContactRows,
+) -> Evaluated {
+    let mut rows = Vec::new();
+    for j in &model.joints {
+        j.rows(t, poses, &mut rows);
+    }
+    let njoint = rows.len();
+    rows.extend(contact_rows(poses));
+    let (mut max, mut squares) = (0.0f64, 0.0);
+    for (k, r) in rows.iter().enumerate() {
+        let v = if k >= njoint && mode == ContactRows::Inequality {
+            (-r.value).max(0.0)
+        } else {
+            r.value.abs()
+        };
+        max = max.max(v);
+        squares += v * v;
+    }
+    Evaluated {
+        rows,
+        njoint,
+        max,
+        squares,
+    }
+}
+
+/// Step halvings tried before an iteration gives up.
+const MAX_HALVINGS: usize = 8;
+
 /// Projects `poses` at time `t`. `contact_rows(poses)` returns the gap and the gradient
 /// blocks of the contacts to project, evaluated at the given poses.
+///
+/// Damped Gauss–Newton: the full step is taken when it lowers the squared violation,
+/// else it is halved (up to `MAX_HALVINGS` times). Where the constraint manifold is
+/// curved on the scale of the correction (a ring contact at a clearance of nanometres,
+/// a journal that crossed its clearance in one large step) the full step overshoots and
+/// the undamped iteration wanders off; the damped one never leaves the poses worse
+/// than it found them.
 #[allow(clippy::too_many_arguments)]
 pub fn project(
     model: &Model,
@@ -73,39 +123,26 @@ pub fn project(
     max_iterations: usize,
 ) -> ProjectionOutcome {
     let ndof = 6 * model.bodies.len();
-    let mut out = ProjectionOutcome::default();
-    let mut rows = Vec::new();
+    let mut current = evaluate_rows(model, t, poses, contact_rows, mode);
+    let mut out = ProjectionOutcome {
+        violation_before: current.max,
+        violation_after: current.max,
+        ..Default::default()
+    };
+    let mut trial_poses = poses.to_vec();
     for it in 0..=max_iterations {
-        rows.clear();
-        for j in &model.joints {
-            j.rows(t, poses, &mut rows);
-        }
-        let njoint = rows.len();
-        rows.extend(contact_rows(poses));
-        let violation = rows
-            .iter()
-            .enumerate()
-            .map(|(k, r)| {
-                if k >= njoint && mode == ContactRows::Inequality {
-                    (-r.value).max(0.0)
-                } else {
-                    r.value.abs()
-                }
-            })
-            .fold(0.0, f64::max);
-        if it == 0 {
-            out.violation_before = violation;
-        }
-        out.violation_after = violation;
         out.iterations = it;
-        if violation <= tolerance {
+        out.violation_after = current.max;
+        if current.max <= tolerance {
             out.converged = true;
             return out;
         }
-        if it == max_iterations || rows.is_empty() {
+        if it == max_iterations || current.rows.is_empty() {
             break;
         }
-        let (cmat, _) = bilateral_matrix(&rows, mask, ndof);
+        let rows = &current.rows;
+        let njoint = current.njoint;
+        let (cmat, _) = bilateral_matrix(rows, mask, ndof);
         // M⁻¹ Cᵀ, body block by body block
         let mut mct = DMatrix::zeros(ndof, rows.len());
         for (b, mi) in minv.iter().enumerate() {
@@ -128,12 +165,27 @@ pub fn project(
         if dnu.iter().any(|x| !x.is_finite()) {
             break;
         }
-        for (b, pose) in poses.iter_mut().enumerate() {
-            let d = Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
-            if d != Vector6::zeros() {
-                *pose = pose.advanced(&d);
+        let mut accepted = None;
+        let mut alpha = 1.0;
+        for _ in 0..=MAX_HALVINGS {
+            for (b, (trial, pose)) in trial_poses.iter_mut().zip(poses.iter()).enumerate() {
+                let d = alpha * Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
+                *trial = if d != Vector6::zeros() {
+                    pose.advanced(&d)
+                } else {
+                    *pose
+                };
             }
+            let e = evaluate_rows(model, t, &trial_poses, contact_rows, mode);
+            if e.squares < current.squares {
+                accepted = Some(e);
+                break;
+            }
+            alpha *= 0.5;
         }
+        let Some(next) = accepted else { break };
+        poses.copy_from_slice(&trial_poses);
+        current = next;
     }
     out
 }

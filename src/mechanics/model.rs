@@ -165,6 +165,21 @@ impl Model {
         pairs.chain(limits).chain(clearance).collect()
     }
 
+    /// Every candidate of `contact_candidates`, in its order, evaluated at `poses` into
+    /// `out` (each clearance joint placed once for all its points).
+    pub fn evaluate_candidates(&self, poses: &[Pose], out: &mut Vec<ContactPoint>) {
+        out.clear();
+        for c in &self.contacts {
+            out.extend((0..c.candidates()).map(|k| c.evaluate(k, poses)));
+        }
+        for j in self.joints.iter().filter(|j| j.limits.is_some()) {
+            out.extend([false, true].map(|upper| j.limit_point(upper, poses)));
+        }
+        for j in &self.clearance_joints {
+            j.evaluate_all(poses, out);
+        }
+    }
+
     /// The candidate evaluated at `poses`.
     pub fn evaluate_candidate(&self, c: Candidate, poses: &[Pose]) -> ContactPoint {
         match c {
@@ -197,6 +212,11 @@ impl Model {
                 match point {
                     0 => format!("{}.ring-", j.name),
                     1 => format!("{}.ring+", j.name),
+                    k if j.is_guard(k) => {
+                        let (side, q) = j.guard(k);
+                        let sign = if side < 0.0 { '-' } else { '+' };
+                        format!("{}.guard{sign}[{q}]", j.name)
+                    }
                     k if k - 2 < j.rim_points => format!("{}.flange-[{}]", j.name, k - 2),
                     k => format!("{}.flange+[{}]", j.name, k - 2 - j.rim_points),
                 }

@@ -4,7 +4,14 @@
 //! contacts, no compliance:
 //! - two ring–cylinder contacts: each end ring of the bore against the journal cylinder,
 //!   closest point by Newton on the ring angle from the axis/ring-plane intersection;
-//! - m rim points per flange against the bore's end faces (axial play).
+//! - m rim points per flange against the bore's end faces (axial play);
+//! - guards: further points of each ring, spaced evenly around it from the closest point,
+//!   against the journal. They stay far from contact while one step moves the journal by
+//!   less than its clearance, so they change nothing then. When a step would carry the
+//!   journal across its bore (a large step, or a clearance of nanometres) the integrator
+//!   activates the guard the journal is heading for: the velocity problem then keeps the
+//!   journal inside the hexagon they circumscribe, instead of letting it slide along the
+//!   closest point's tangent plane and projecting it back from far outside the ring.
 
 use super::{ContactGeometry, ContactPoint};
 use crate::math::any_orthogonal;
@@ -40,6 +47,11 @@ pub struct ClearanceJoint {
     pub e: f64,
 }
 
+/// Points per ring, the closest point included: the guards sit every 60°, so the
+/// hexagon they circumscribe leaves the journal at most c (1/cos 30° − 1) = 0.15 c beyond
+/// its ring for the projection to remove.
+const RING_POINTS: usize = 6;
+
 /// Newton iterations on the ring angle (1–3 are enough from the intersection guess; the
 /// loop stops at machine precision).
 const NEWTON_STEPS: usize = 5;
@@ -49,9 +61,23 @@ impl ClearanceJoint {
         self.journal_radius + self.clearance
     }
 
-    /// 2 rings + 2 × rim points.
+    /// 2 rings + 2 × rim points + 2 × guards.
     pub fn candidates(&self) -> usize {
-        2 + 2 * self.rim_points
+        2 + 2 * self.rim_points + 2 * (RING_POINTS - 1)
+    }
+
+    /// Whether candidate `k` is a guard: a ring point that is not the closest one. The
+    /// integrator activates guards from the velocity step only and never projects them
+    /// (g = 0 at a guard and at the closest point of the same ring cannot both hold).
+    pub fn is_guard(&self, k: usize) -> bool {
+        k >= 2 + 2 * self.rim_points
+    }
+
+    /// Side (−1 or +1) and index 1…5 of guard candidate `k`.
+    pub fn guard(&self, k: usize) -> (f64, usize) {
+        let j = k - 2 - 2 * self.rim_points;
+        let side = if j < RING_POINTS - 1 { -1.0 } else { 1.0 };
+        (side, j % (RING_POINTS - 1) + 1)
     }
 
     fn poses(&self, poses: &[Pose]) -> (Pose, Pose) {
@@ -59,36 +85,80 @@ impl ClearanceJoint {
         (p(self.bore_body), p(self.journal_body))
     }
 
-    /// Candidate `k`: 0 and 1 are the − and + rings; then the rim points of the − flange,
-    /// then of the + flange.
-    pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
+    /// The joint's frames at `poses`, with each ring's closest-point angle (found once and
+    /// shared by the ring's point and its guards).
+    fn place(&self, poses: &[Pose]) -> Placed {
         let (pb, pj) = self.poses(poses);
         let a_b = pb.dir(&self.bore_axis);
         let a_j = pj.dir(&self.journal_axis);
         let c_b = pb.point(&self.bore_center);
         let p_j = pj.point(&self.journal_point);
-        if k < 2 {
-            let side = if k == 0 { -1.0 } else { 1.0 };
-            let ring_center = c_b + a_b * (side * 0.5 * self.bore_length);
-            let g = ring_journal(
-                &ring_center,
-                &a_b,
+        let ring = |side: f64| {
+            let ring = Ring::new(
+                c_b + a_b * (side * 0.5 * self.bore_length),
+                a_b,
                 self.bore_radius(),
-                &p_j,
-                &a_j,
-                self.journal_radius,
             );
+            let phi = ring.closest_angle(&p_j, &a_j);
+            (ring, phi)
+        };
+        Placed {
+            rings: [ring(-1.0), ring(1.0)],
+            pb,
+            pj,
+            a_b,
+            a_j,
+            c_b,
+            p_j,
+        }
+    }
+
+    /// Candidate `k`: 0 and 1 are the − and + rings; then the rim points of the − flange,
+    /// then of the + flange; then the guards of the − ring, then of the + ring.
+    pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
+        self.point(k, &self.place(poses))
+    }
+
+    /// Every candidate, in order, appended to `out` (the joint is placed once).
+    pub fn evaluate_all(&self, poses: &[Pose], out: &mut Vec<ContactPoint>) {
+        let placed = self.place(poses);
+        out.extend((0..self.candidates()).map(|k| self.point(k, &placed)));
+    }
+
+    fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
+        let Placed {
+            pb,
+            pj,
+            a_b,
+            a_j,
+            c_b,
+            p_j,
+            ..
+        } = *placed;
+        if k < 2 || self.is_guard(k) {
+            let (side, offset) = match k {
+                0 => (-1.0, 0),
+                1 => (1.0, 0),
+                _ => self.guard(k),
+            };
+            let (ring, closest) = &placed.rings[usize::from(side > 0.0)];
+            let phi = closest + 2.0 * std::f64::consts::PI * offset as f64 / RING_POINTS as f64;
+            let g = ring.point_against_journal(phi, &p_j, &a_j, self.journal_radius);
             let t2 = g.normal.cross(&a_j);
-            ContactPoint::new(
+            let guard = offset != 0;
+            // a guard is open when it acts: frictionless, on the linearised gap
+            let mut cp = ContactPoint::new(
                 g,
                 self.bore_body,
                 &pb,
                 self.journal_body,
                 &pj,
                 Some((a_j, t2)),
-                self.mu,
-                self.e,
-            )
+                if guard { 0.0 } else { self.mu },
+                if guard { 0.0 } else { self.e },
+            );
+            cp.gap_law = guard;
+            cp
         } else {
             let j = k - 2;
             let (side, idx) = if j < self.rim_points {
@@ -151,6 +221,103 @@ impl ClearanceJoint {
     }
 }
 
+/// A clearance joint placed at given poses: the body poses, the bore and journal axes and
+/// points in the world, and each ring (−, +) with its closest-point angle.
+struct Placed {
+    pb: Pose,
+    pj: Pose,
+    a_b: Vector3<f64>,
+    a_j: Vector3<f64>,
+    c_b: Vector3<f64>,
+    p_j: Vector3<f64>,
+    rings: [(Ring, f64); 2],
+}
+
+/// A bore's end ring: centre, unit normal (the bore axis), radius, and a basis of its plane.
+struct Ring {
+    c: Vector3<f64>,
+    a: Vector3<f64>,
+    r: f64,
+    b1: Vector3<f64>,
+    b2: Vector3<f64>,
+}
+
+impl Ring {
+    fn new(c: Vector3<f64>, a: Vector3<f64>, r: f64) -> Self {
+        let b1 = any_orthogonal(&a);
+        let b2 = a.cross(&b1);
+        Ring { c, a, r, b1, b2 }
+    }
+
+    fn point(&self, phi: f64) -> Vector3<f64> {
+        self.c + (self.b1 * phi.cos() + self.b2 * phi.sin()) * self.r
+    }
+
+    /// Angle of the ring point closest to the axis (`p`, unit `aj`): from where the axis
+    /// crosses the ring plane, refined by Newton on f'(φ) = 0 with
+    /// f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0.
+    fn closest_angle(&self, p: &Vector3<f64>, aj: &Vector3<f64>) -> f64 {
+        let (c, a, r, b1, b2) = (&self.c, &self.a, self.r, &self.b1, &self.b2);
+        let denom = a.dot(aj);
+        let s = if denom.abs() > 1e-12 {
+            p + aj * (a.dot(&(c - p)) / denom)
+        } else {
+            *p
+        };
+        let e = s - c;
+        let (ex, ey) = (e.dot(b1), e.dot(b2));
+        let mut phi = if ex.hypot(ey) > 0.0 {
+            ey.atan2(ex)
+        } else {
+            0.0
+        };
+        for _ in 0..NEWTON_STEPS {
+            let (sn, cs) = phi.sin_cos();
+            let w = c + (b1 * cs + b2 * sn) * r - p;
+            let w1 = (b2 * cs - b1 * sn) * r;
+            let w2 = -(b1 * cs + b2 * sn) * r;
+            let (wa, w1a, w2a) = (w.dot(aj), w1.dot(aj), w2.dot(aj));
+            let d1 = w.dot(&w1) - wa * w1a;
+            let d2 = w1.dot(&w1) + w.dot(&w2) - w1a * w1a - wa * w2a;
+            if d2 <= 0.0 {
+                break;
+            }
+            let step = d1 / d2;
+            phi -= step;
+            if step.abs() <= 1e-15 * (1.0 + phi.abs()) {
+                break;
+            }
+        }
+        phi
+    }
+
+    /// The ring point at angle `phi` against the cylinder (`p`, `aj`, radius `rj`): the
+    /// normal points from the cylinder surface towards the ring point, gap = distance − rj.
+    fn point_against_journal(
+        &self,
+        phi: f64,
+        p: &Vector3<f64>,
+        aj: &Vector3<f64>,
+        rj: f64,
+    ) -> ContactGeometry {
+        let ring_point = self.point(phi);
+        let foot = p + aj * (ring_point - p).dot(aj);
+        let d = ring_point - foot;
+        let dist = d.norm();
+        let normal = if dist > 0.0 {
+            d / dist
+        } else {
+            any_orthogonal(aj)
+        };
+        ContactGeometry {
+            gap: dist - rj,
+            normal,
+            point1: ring_point,
+            point2: foot + normal * rj,
+        }
+    }
+}
+
 /// Closest point between the ring (centre `c`, unit normal `a`, radius `r`) and the
 /// cylinder of axis (`p`, unit `aj`) and radius `rj`. Body 1 carries the ring: the normal
 /// points from the cylinder surface towards the ring point, gap = distance − rj.
@@ -162,53 +329,7 @@ pub fn ring_journal(
     aj: &Vector3<f64>,
     rj: f64,
 ) -> ContactGeometry {
-    let b1 = any_orthogonal(a);
-    let b2 = a.cross(&b1);
-    // initial guess: where the journal axis crosses the ring plane
-    let denom = a.dot(aj);
-    let s = if denom.abs() > 1e-12 {
-        p + aj * (a.dot(&(c - p)) / denom)
-    } else {
-        *p
-    };
-    let e = s - c;
-    let (ex, ey) = (e.dot(&b1), e.dot(&b2));
-    let mut phi = if ex.hypot(ey) > 0.0 {
-        ey.atan2(ex)
-    } else {
-        0.0
-    };
-    // Newton on f'(φ) = 0, f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0
-    for _ in 0..NEWTON_STEPS {
-        let (sn, cs) = phi.sin_cos();
-        let w = c + (b1 * cs + b2 * sn) * r - p;
-        let w1 = (b2 * cs - b1 * sn) * r;
-        let w2 = -(b1 * cs + b2 * sn) * r;
-        let (wa, w1a, w2a) = (w.dot(aj), w1.dot(aj), w2.dot(aj));
-        let d1 = w.dot(&w1) - wa * w1a;
-        let d2 = w1.dot(&w1) + w.dot(&w2) - w1a * w1a - wa * w2a;
-        if d2 <= 0.0 {
-            break;
-        }
-        let step = d1 / d2;
-        phi -= step;
-        if step.abs() <= 1e-15 * (1.0 + phi.abs()) {
-            break;
-        }
-    }
-    let ring_point = c + (b1 * phi.cos() + b2 * phi.sin()) * r;
-    let foot = p + aj * (ring_point - p).dot(aj);
-    let d = ring_point - foot;
-    let dist = d.norm();
-    let normal = if dist > 0.0 {
-        d / dist
-    } else {
-        any_orthogonal(aj)
-    };
-    ContactGeometry {
-        gap: dist - rj,
-        normal,
-        point1: ring_point,
-        point2: foot + normal * rj,
-    }
+    let ring = Ring::new(*c, *a, r);
+    let phi = ring.closest_angle(p, aj);
+    ring.point_against_journal(phi, p, aj, rj)
 }

@@ -40,6 +40,11 @@ pub struct ContactPoint {
     pub g2: Matrix3x6<f64>,
     pub mu: f64,
     pub e: f64,
+    /// Whether the law is on the linearised end-of-step gap, g + h u_N,θ ≥ 0, instead of on
+    /// u_N ≥ 0. Clearance guards use it: they enter the velocity problem while still open
+    /// (the step would carry the journal through them), so they must stop the journal where
+    /// the gap closes, not where it is now.
+    pub gap_law: bool,
 }
 
 impl ContactPair {
@@ -153,6 +158,7 @@ impl ContactPoint {
             g2: jac(p2, -1.0),
             mu,
             e,
+            gap_law: false,
         }
     }
 

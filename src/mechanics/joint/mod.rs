@@ -254,6 +254,7 @@ impl Joint {
             g2: block(row.a),
             mu: 0.0,
             e: lim.e,
+            gap_law: false,
         }
     }
 
