@@ -27,6 +27,19 @@ fn clearance_from_a_micrometre_to_a_millimetre_at_the_smallest_and_usual_steps()
     check(cases);
 }
 
+/// Steps of 1 ms and 10 ms carry the journal across a 1 µm…1 mm clearance in one step
+/// (h·v ≫ c): the ring guards keep it in its bore, within the penetration tolerance.
+#[test]
+fn clearance_at_steps_that_cross_the_whole_clearance() {
+    let mut cases = Vec::new();
+    for c in [1e-6, 1e-3] {
+        for h in [1e-3, 1e-2] {
+            cases.push(extremes::clearance_pendulum(c, h, 0.1, 0.0, 1.0, 2_000));
+        }
+    }
+    check(cases);
+}
+
 #[test]
 fn restitution_and_friction_from_zero_to_the_extremes() {
     let mut cases = Vec::new();
