@@ -77,8 +77,6 @@ pub struct Simulation {
     /// Per candidate, the ring (2 × joint + side) of a clearance-joint guard
     /// (`ClearanceJoint::is_guard`); `None` for every other contact.
     guard_ring: Vec<Option<usize>>,
-    /// Whether each candidate is a guard (`guard_ring` is `Some`).
-    guards: Vec<bool>,
     mask: Vec<bool>,
     minv: Vec<Matrix6<f64>>,
     points: Vec<ContactPoint>,
@@ -88,11 +86,6 @@ pub struct Simulation {
     active: Vec<usize>,
     t0: f64,
     pub stats: RunStats,
-}
-
-fn evaluate(model: &Model, candidates: &[Candidate], poses: &[Pose], out: &mut Vec<ContactPoint>) {
-    model.evaluate_candidates(poses, out);
-    debug_assert_eq!(out.len(), candidates.len());
 }
 
 impl Simulation {
@@ -115,9 +108,7 @@ impl Simulation {
                 _ => None,
             })
             .collect();
-        let guards = guard_ring.iter().map(Option::is_some).collect();
         let mut sim = Simulation {
-            guards,
             guard_ring,
             minv: inverse_mass(&model, &mask),
             mask,
@@ -137,12 +128,8 @@ impl Simulation {
     }
 
     fn update_geometry(&mut self) {
-        evaluate(
-            &self.model,
-            &self.candidates,
-            &self.state.poses,
-            &mut self.points,
-        );
+        self.model
+            .evaluate_candidates(&self.state.poses, &mut self.points);
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
@@ -163,6 +150,10 @@ impl Simulation {
                 }
             }
         }
+    }
+
+    fn is_guard(&self, i: usize) -> bool {
+        self.guard_ring[i].is_some()
     }
 
     /// Contact candidates evaluated at the current state, in `Model::contact_candidates` order.
@@ -205,7 +196,7 @@ impl Simulation {
         let warm: Vec<Vector3<f64>> = active
             .iter()
             .map(|&i| {
-                if self.guards[i] {
+                if self.is_guard(i) {
                     Vector3::zeros()
                 } else {
                     self.impulses[i]
@@ -234,10 +225,9 @@ impl Simulation {
         mode: ContactRows,
     ) -> ProjectionOutcome {
         let model = &self.model;
-        let candidates = &self.candidates;
         let rows = |ps: &[Pose]| -> Vec<BilateralRow> {
             let mut pts = Vec::new();
-            evaluate(model, candidates, ps, &mut pts);
+            model.evaluate_candidates(ps, &mut pts);
             pts.iter()
                 .enumerate()
                 .filter(|(i, cp)| which(*i, cp))
@@ -281,9 +271,8 @@ impl Simulation {
                 let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
-                    let set: Vec<bool> = (0..self.points.len())
-                        .map(|i| active.contains(&i))
-                        .collect();
+                    let mut set = vec![false; self.points.len()];
+                    active.iter().for_each(|&i| set[i] = true);
                     report.projection =
                         self.project_poses(&mut poses, &|i, _| set[i], ContactRows::Inequality);
                 }
@@ -345,24 +334,29 @@ impl Simulation {
             .active
             .iter()
             .copied()
-            .filter(|&i| !self.guards[i])
+            .filter(|&i| !self.is_guard(i))
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
         let mut last = None;
         for pass in 1..=p.max_active_set_passes {
             let vs = self.velocity(&active);
+            let mut in_active = vec![false; self.points.len()];
+            active.iter().for_each(|&i| in_active[i] = true);
             // A guard whose linearised end-of-step gap g + h u_N,θ is negative marks a step
             // that carries the journal across its clearance: put the most crossed guard of
             // each such ring in the velocity problem and solve again (the guards are far from
             // contact otherwise, so this never happens while h·v stays below the clearance).
             // One per ring and pass keeps the problem small and its Delassus matrix regular.
             let mut worst: Vec<(usize, usize, f64)> = Vec::new(); // (ring, candidate, gap)
-            for i in (0..self.points.len()).filter(|&i| self.guards[i] && !active.contains(&i)) {
+            for (i, ring) in self.guard_ring.iter().enumerate() {
+                let Some(ring) = *ring else { continue };
+                if in_active[i] {
+                    continue;
+                }
                 let c = &self.points[i];
                 let u0 = c.local_velocity(self.state.v.as_slice()).x;
                 let u1 = c.local_velocity(vs.v.as_slice()).x;
                 let end_gap = c.gap() + p.h * ((1.0 - p.theta) * u0 + p.theta * u1);
-                let ring = self.guard_ring[i].expect("a guard");
                 if end_gap < -GUARD_DEPTH * self.model.clearance_joints[ring / 2].clearance {
                     match worst.iter_mut().find(|w| w.0 == ring) {
                         Some(w) if end_gap < w.2 => *w = (ring, i, end_gap),
@@ -391,20 +385,17 @@ impl Simulation {
                 closed[i] =
                     vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
             }
-            let in_active: Vec<bool> = (0..self.points.len())
-                .map(|i| active.contains(&i))
-                .collect();
-            let guards = &self.guards;
+            let guard_ring = &self.guard_ring;
             let selected = |i: usize, cp: &ContactPoint| {
-                in_active[i] && !guards[i] && (closed[i] || cp.gap() < 0.0)
+                in_active[i] && guard_ring[i].is_none() && (closed[i] || cp.gap() < 0.0)
             };
             report.projection = self.project_poses(&mut poses, &selected, ContactRows::Equality);
             report.active_set_passes = pass;
             // activation from the end-of-step position
             let mut after = Vec::new();
-            evaluate(&self.model, &self.candidates, &poses, &mut after);
+            self.model.evaluate_candidates(&poses, &mut after);
             let new: Vec<usize> = (0..after.len())
-                .filter(|&i| !in_active[i] && !self.guards[i] && after[i].gap() <= 0.0)
+                .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();
             if new.is_empty() {
                 return (active, vs, poses);

@@ -180,17 +180,6 @@ impl Model {
         }
     }
 
-    /// The candidate evaluated at `poses`.
-    pub fn evaluate_candidate(&self, c: Candidate, poses: &[Pose]) -> ContactPoint {
-        match c {
-            Candidate::Pair { pair, point } => self.contacts[pair].evaluate(point, poses),
-            Candidate::Limit { joint, upper } => self.joints[joint].limit_point(upper, poses),
-            Candidate::Clearance { joint, point } => {
-                self.clearance_joints[joint].evaluate(point, poses)
-            }
-        }
-    }
-
     /// A readable name of the candidate for outputs: `floor`, `box[3]`, `J1.upper`.
     pub fn candidate_name(&self, c: Candidate) -> String {
         match c {

@@ -80,36 +80,33 @@ impl ClearanceJoint {
         (side, j % (RING_POINTS - 1) + 1)
     }
 
-    fn poses(&self, poses: &[Pose]) -> (Pose, Pose) {
+    /// The bore and journal frames in the world at `poses`.
+    fn frames(&self, poses: &[Pose]) -> Frames {
         let p = |r: BodyRef| r.map_or(Pose::identity(), |i| poses[i]);
-        (p(self.bore_body), p(self.journal_body))
+        let (pb, pj) = (p(self.bore_body), p(self.journal_body));
+        Frames {
+            a_b: pb.dir(&self.bore_axis),
+            a_j: pj.dir(&self.journal_axis),
+            c_b: pb.point(&self.bore_center),
+            p_j: pj.point(&self.journal_point),
+            pb,
+            pj,
+        }
     }
 
-    /// The joint's frames at `poses`, with each ring's closest-point angle (found once and
-    /// shared by the ring's point and its guards).
+    /// The joint at `poses`: its frames and each ring with its closest-point angle (found
+    /// once and shared by the ring's point and its guards).
     fn place(&self, poses: &[Pose]) -> Placed {
-        let (pb, pj) = self.poses(poses);
-        let a_b = pb.dir(&self.bore_axis);
-        let a_j = pj.dir(&self.journal_axis);
-        let c_b = pb.point(&self.bore_center);
-        let p_j = pj.point(&self.journal_point);
+        let f = self.frames(poses);
         let ring = |side: f64| {
-            let ring = Ring::new(
-                c_b + a_b * (side * 0.5 * self.bore_length),
-                a_b,
-                self.bore_radius(),
-            );
-            let phi = ring.closest_angle(&p_j, &a_j);
+            let centre = f.c_b + f.a_b * (side * 0.5 * self.bore_length);
+            let ring = Ring::new(centre, f.a_b, self.bore_radius());
+            let phi = ring.closest_angle(&f.p_j, &f.a_j);
             (ring, phi)
         };
         Placed {
             rings: [ring(-1.0), ring(1.0)],
-            pb,
-            pj,
-            a_b,
-            a_j,
-            c_b,
-            p_j,
+            frames: f,
         }
     }
 
@@ -126,15 +123,14 @@ impl ClearanceJoint {
     }
 
     fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
-        let Placed {
+        let Frames {
             pb,
             pj,
             a_b,
             a_j,
             c_b,
             p_j,
-            ..
-        } = *placed;
+        } = placed.frames;
         if k < 2 || self.is_guard(k) {
             let (side, offset) = match k {
                 0 => (-1.0, 0),
@@ -200,11 +196,9 @@ impl ClearanceJoint {
     /// An error when the journal has left the bore: its axis misses a ring by more than the
     /// bore radius, or an end ring falls outside the journal's length (flange to flange).
     pub fn check(&self, poses: &[Pose]) -> Result<(), String> {
-        let (pb, pj) = self.poses(poses);
-        let a_b = pb.dir(&self.bore_axis);
-        let a_j = pj.dir(&self.journal_axis);
-        let c_b = pb.point(&self.bore_center);
-        let p_j = pj.point(&self.journal_point);
+        let Frames {
+            a_b, a_j, c_b, p_j, ..
+        } = self.frames(poses);
         let reach = 0.5 * (self.bore_length + self.axial_play);
         for side in [-1.0, 1.0] {
             let ring = c_b + a_b * (side * 0.5 * self.bore_length);
@@ -221,15 +215,22 @@ impl ClearanceJoint {
     }
 }
 
-/// A clearance joint placed at given poses: the body poses, the bore and journal axes and
-/// points in the world, and each ring (−, +) with its closest-point angle.
-struct Placed {
+/// A clearance joint's frames in the world: the body poses (bore, journal), the bore axis
+/// and centre, the journal axis and point.
+#[derive(Clone, Copy)]
+struct Frames {
     pb: Pose,
     pj: Pose,
     a_b: Vector3<f64>,
     a_j: Vector3<f64>,
     c_b: Vector3<f64>,
     p_j: Vector3<f64>,
+}
+
+/// A clearance joint placed at given poses: its frames, and each ring (−, +) with its
+/// closest-point angle.
+struct Placed {
+    frames: Frames,
     rings: [(Ring, f64); 2],
 }
 
