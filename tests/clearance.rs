@@ -458,11 +458,11 @@ fn slider_crank_with_a_clearance_joint_runs_ten_revolutions() {
 }
 
 /// The extremes matrix at a size CI affords: clearance × step × friction on the pendulum.
-/// Every cell runs to the end without NaN or penetration above tolerance, and without
-/// solver failure, except at μ = 1: the bore is as long as the journal's diameter, so
-/// μ = 1 is the drawer's self-locking threshold, where the impulse problem can have no
-/// bounded solution (issue #4, open). There a few isolated failed steps (< 0.5 %) remain,
-/// their number depending on the trajectory's details; more would be a regression.
+/// Every cell runs to the end without NaN, penetration above tolerance or a failed step
+/// (contact solver, Newton loop or projection), μ = 1 included: there the bore is as long
+/// as the journal's diameter, the drawer's self-locking threshold, and the rings and a
+/// flange give 18 unknowns on 6 degrees of freedom, which the solver's adaptive
+/// proximal-point stage solves to tolerance.
 #[test]
 fn extremes_matrix_on_the_clearance_pendulum() {
     eprintln!("| c (m) | h (s) | μ | max penetration (m) | solver failures | µs/step |");
@@ -490,9 +490,8 @@ fn extremes_matrix_on_the_clearance_pendulum() {
                     st.max_penetration
                 );
                 let failures = st.solver_failures + st.newton_failures + st.projection_failures;
-                let allowed = if mu < 1.0 { 0 } else { st.steps / 200 };
                 assert!(
-                    failures <= allowed,
+                    failures == 0,
                     "c = {c}, h = {h}, μ = {mu}: {failures} failed steps of {}",
                     st.steps
                 );

@@ -127,39 +127,56 @@ pub fn global_newton(
 /// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r) (`contact_solvers.md` §4), each
 /// solved by the global Newton method, whose Jacobian the shift η makes nonsingular. For
 /// the jammed, rank-deficient problems where Gauss–Seidel stalls and the plain Newton's line
-/// search stops (a journal wedged between the two rings of a clearance joint at μ = 1), the
-/// iterates move along the soft directions of W that both miss. Returns the iterations
-/// used if the *original* problem reached `tolerance`.
+/// search stops (a journal wedged between the two rings and a flange of a clearance joint
+/// at μ = 1: 18 unknowns on 6 degrees of freedom), the iterates move along the soft
+/// directions of W that both miss. η adapts: a small η moves fast but its subproblem is
+/// nearly as singular as the original, so η shrinks threefold after every solved
+/// subproblem and grows tenfold when the inner Newton fails (from η = mean diag W it starts
+/// again at 1e-4 from the best iterate). A fixed η either failed its subproblems or crept
+/// (0.1 % a step at 0.1 mean diag W). Returns the inner Newton iterations used if the
+/// *original* problem reached `tolerance`; `r` holds the best iterate either way.
 pub fn proximal_newton(
     p: &Fc3d,
     r: &mut DVector<f64>,
     tolerance: f64,
     max_outer: usize,
 ) -> Option<usize> {
-    let n = p.w.nrows();
     let mean_diag = p.w.diagonal().mean().max(f64::MIN_POSITIVE);
-    let mut total = 0;
-    for &rel in &[1e-3, 1e-2] {
+    let (mut rel, mut total) = (1e-4, 0);
+    let mut current = r.clone();
+    let mut best = natural_map_error(p, r);
+    for _ in 0..max_outer {
         let eta = rel * mean_diag;
         let mut w = p.w.clone();
-        for k in 0..n {
-            w[(k, k)] += eta;
-        }
-        let mut trial = r.clone();
-        for _ in 0..max_outer {
-            let q = p.q - &trial * eta;
-            let sub = Fc3d {
-                w: &w,
-                q: &q,
-                mu: p.mu,
-            };
-            let it = global_newton(&sub, &mut trial, 0.01 * tolerance, 50)?;
-            total += it + 1;
-            if natural_map_error(p, &trial) <= tolerance {
-                *r = trial;
-                return Some(total);
+        w.set_diagonal(&(p.w.diagonal().add_scalar(eta)));
+        let q = p.q - &current * eta;
+        let sub = Fc3d {
+            w: &w,
+            q: &q,
+            mu: p.mu,
+        };
+        let mut trial = current.clone();
+        let Some(it) = global_newton(&sub, &mut trial, 0.01 * tolerance, 50) else {
+            // even a large shift fails from here: start again from the best iterate
+            if rel >= 1.0 {
+                rel = 1e-4;
+                current.copy_from(r);
+            } else {
+                rel *= 10.0;
             }
+            continue;
+        };
+        total += it + 1;
+        let e = natural_map_error(p, &trial);
+        current = trial;
+        if e < best {
+            best = e;
+            r.copy_from(&current);
         }
+        if e <= tolerance {
+            return Some(total);
+        }
+        rel = (rel * 0.3).max(1e-7);
     }
     None
 }
