@@ -71,7 +71,11 @@ pub enum Direction {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
-    /// The candidates' total normal impulse becomes positive.
+    /// The candidates' total normal impulse becomes positive, timed within the step: the
+    /// event-capturing step knows only that the contact closed somewhere in [t_k, t_k+1],
+    /// so the time is t_k + g_k / (−u), the free flight of the step-start gap at the
+    /// approach speed u = (g_k − g_k−1)/h of the step before (error about g·h·τ/|u| under
+    /// an acceleration g, against h for the step end).
     Closes(Vec<usize>),
     /// The candidates' total normal impulse returns to zero.
     Opens(Vec<usize>),
@@ -125,6 +129,9 @@ struct Progress {
     acc: f64,
     /// The previous observation (t, measure), to interpolate crossings and `at` times.
     previous: Option<(f64, f64)>,
+    /// `Closes` events: each candidate's gap at the previous observation and its rate over
+    /// the step before it.
+    approach: Vec<(f64, f64)>,
 }
 
 impl Progress {
@@ -134,6 +141,20 @@ impl Progress {
             Reduce::Mean => self.acc / self.count as f64,
             _ => self.acc,
         })
+    }
+}
+
+/// When, within a step of size h, a contact at gap `gap` approaching at normal velocity
+/// `u` (< 0) touches: the free flight gap/(−u), from −h (it touched during the previous
+/// step and the step ended penetrating, as plain Moreau–Jean allows) to h. A contact that
+/// does not approach closes at the step start if touching, else at the step end.
+fn closing_delay(gap: f64, u: f64, h: f64) -> f64 {
+    if u < 0.0 {
+        (gap / -u).clamp(-h, h)
+    } else if gap <= 0.0 {
+        0.0
+    } else {
+        h
     }
 }
 
@@ -173,13 +194,40 @@ impl<'a> ProbeRecorder<'a> {
             }
             let hit = match event {
                 Event::Closes(ids) | Event::Opens(ids) => {
-                    let closed = ids.iter().any(|&i| sim.impulses()[i].x > 0.0);
+                    let pressed = |i: usize| sim.impulses()[i].x > 0.0;
+                    let closed = ids.iter().any(|&i| pressed(i));
                     let hit = match event {
-                        Event::Closes(_) => closed && !g.closed,
-                        _ => !closed && g.closed,
+                        Event::Closes(_) => (closed && !g.closed).then(|| {
+                            let h = sim.params.h;
+                            ids.iter()
+                                .zip(&g.approach)
+                                .filter(|(&i, _)| pressed(i))
+                                .map(|(_, &(gap, u))| t - h + closing_delay(gap, u, h))
+                                .fold(t, f64::min)
+                        }),
+                        _ => (!closed && g.closed).then_some(t),
                     };
                     g.closed = closed;
-                    hit.then_some(t)
+                    if let Event::Closes(_) = event {
+                        // the gap rate over the step just done, not the end-of-step velocity:
+                        // with θ = 1/2 a driven body's end velocities alternate about its
+                        // prescribed speed (0, 2v, 0, …) while its position moves at v
+                        let v = sim.state.v.as_slice();
+                        let h = sim.params.h;
+                        let before = std::mem::take(&mut g.approach);
+                        g.approach = ids
+                            .iter()
+                            .enumerate()
+                            .map(|(k, &i)| {
+                                let c = &sim.contact_points()[i];
+                                let rate = before
+                                    .get(k)
+                                    .map_or(c.local_velocity(v).x, |&(g0, _)| (c.gap() - g0) / h);
+                                (c.gap(), rate)
+                            })
+                            .collect();
+                    }
+                    hit
                 }
                 Event::Crosses {
                     measure,

@@ -74,11 +74,23 @@ fn contact_events_and_mean_force_at_rest() {
 "#;
     let v = run(&ball(0.9, probes)).unwrap();
     let t1 = (2.0 * 0.9 / 9.81f64).sqrt();
-    assert!((v[0] - t1).abs() <= 1e-3, "{} vs {t1}", v[0]);
-    // the ball is in contact for exactly the impact step
-    assert!((v[1] - v[0] - 1e-3).abs() < 1e-12, "{} {}", v[0], v[1]);
+    // timed within the step by the free flight of the step-start gap at the previous
+    // step's gap rate: gravity shifts that rate by g h / 2 and bends the flight over τ ≤ h,
+    // an error of at most g h τ / |u| ≤ 2.4e-6 s at 4.2 m/s (the step end, the
+    // event-capturing time, is up to h = 1e-3 s off)
+    println!("impact at {:.9} s, closed form {t1:.9} s", v[0]);
+    assert!((v[0] - t1).abs() <= 2.4e-6, "{} vs {t1}", v[0]);
+    // the ball is in contact for exactly the impact step, which ends after the impact
+    let step_end = v[1] - 1e-3;
+    assert!(
+        step_end > v[0] && step_end - v[0] <= 1e-3,
+        "{} {}",
+        v[0],
+        v[1]
+    );
     let flight = 2.0 * 0.9 * (2.0 * 9.81 * 0.9f64).sqrt() / 9.81;
-    assert!((v[2] - v[0] - flight).abs() < 3e-3, "{}", v[2] - v[0]);
+    println!("flight {:.9} s, closed form {flight:.9} s", v[2] - v[0]);
+    assert!((v[2] - v[0] - flight).abs() < 1e-3, "{}", v[2] - v[0]);
 
     let rest = r#"
   - name: weight
