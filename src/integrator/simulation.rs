@@ -123,13 +123,20 @@ impl Simulation {
             state,
             stats: RunStats::default(),
         };
-        sim.update_geometry();
+        sim.update_geometry(None);
         Ok(sim)
     }
 
-    fn update_geometry(&mut self) {
-        self.model
-            .evaluate_candidates(&self.state.poses, &mut self.points);
+    /// Contact points, penetration and joint violations at the current poses; `points`, when
+    /// given, are the contact points already evaluated there (the combined scheme's
+    /// activation test evaluates them at the end-of-step poses).
+    fn update_geometry(&mut self, points: Option<Vec<ContactPoint>>) {
+        match points {
+            Some(points) => self.points = points,
+            None => self
+                .model
+                .evaluate_candidates(&self.state.poses, &mut self.points),
+        }
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
@@ -262,7 +269,7 @@ impl Simulation {
             c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
         };
         let mut report = StepReport::default();
-        let (active, vs, poses) = match p.scheme {
+        let (active, vs, poses, points) = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
                 let active: Vec<usize> = (0..self.points.len())
                     .filter(|&i| forecast(&self.points[i]))
@@ -276,9 +283,12 @@ impl Simulation {
                     report.projection =
                         self.project_poses(&mut poses, &|i, _| set[i], ContactRows::Inequality);
                 }
-                (active, vs, poses)
+                (active, vs, poses, None)
             }
-            Scheme::CombinedProjection => self.combined(&mut report),
+            Scheme::CombinedProjection => {
+                let (active, vs, poses, points) = self.combined(&mut report);
+                (active, vs, poses, Some(points))
+            }
         };
         if vs.v.iter().any(|x| !x.is_finite())
             || poses.iter().any(|q| !q.x.iter().all(|x| x.is_finite()))
@@ -306,7 +316,7 @@ impl Simulation {
             poses,
             v: vs.v,
         };
-        self.update_geometry();
+        self.update_geometry(points);
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;
@@ -327,8 +337,12 @@ impl Simulation {
 
     /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
     /// previous step's active set (kept while pressed or closed; guards are not kept, they
-    /// are chosen afresh each step).
-    fn combined(&self, report: &mut StepReport) -> (Vec<usize>, VelocityStep, Vec<Pose>) {
+    /// are chosen afresh each step). Returns the active set, the velocity step, the
+    /// end-of-step poses and the contact points evaluated at those poses.
+    fn combined(
+        &self,
+        report: &mut StepReport,
+    ) -> (Vec<usize>, VelocityStep, Vec<Pose>, Vec<ContactPoint>) {
         let p = &self.params;
         let mut active: Vec<usize> = self
             .active
@@ -398,9 +412,9 @@ impl Simulation {
                 .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();
             if new.is_empty() {
-                return (active, vs, poses);
+                return (active, vs, poses, after);
             }
-            last = Some((active.clone(), vs, poses));
+            last = Some((active.clone(), vs, poses, after));
             active.extend(new);
             active.sort_unstable();
         }

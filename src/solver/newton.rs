@@ -145,9 +145,9 @@ pub fn proximal_newton(
     let (mut rel, mut total) = (1e-4, 0);
     let mut current = r.clone();
     let mut best = natural_map_error(p, r);
+    let mut w = p.w.clone();
     for _ in 0..max_outer {
         let eta = rel * mean_diag;
-        let mut w = p.w.clone();
         w.set_diagonal(&(p.w.diagonal().add_scalar(eta)));
         let q = p.q - &current * eta;
         let sub = Fc3d {
