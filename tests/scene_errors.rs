@@ -55,6 +55,28 @@ fn unknown_field() {
 }
 
 #[test]
+fn settle_names_an_unknown_contact_or_a_negative_damping() {
+    expect(
+        "contacts:",
+        "settle: { until: 1 ms, friction: [flor] }\ncontacts:",
+        "`settle.friction[0]` unknown contact or joint `flor`",
+        7,
+    );
+    expect(
+        "contacts:",
+        "settle:\n  until: 1 ms\n  damping: -5 Hz\ncontacts:",
+        "settle.damping",
+        9,
+    );
+    expect(
+        "contacts:",
+        "settle: { until: 0 s }\ncontacts:",
+        "settle.until",
+        7,
+    );
+}
+
+#[test]
 fn negative_mass() {
     expect("mass: 1 kg", "mass: -1 kg", "bodies[0].mass", 4);
 }

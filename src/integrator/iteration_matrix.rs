@@ -64,8 +64,9 @@ fn components(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<Vec<
 }
 
 impl<'m> IterationMatrix<'m> {
-    /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ;
-    /// `mask` is `model.dof_mask()`.
+    /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ, with
+    /// the settling damping rate `damping` (α: ∂F/∂v = −α M); `mask` is `model.dof_mask()`.
+    #[allow(clippy::too_many_arguments)]
     pub fn assemble(
         model: &Model,
         mask: &'m [bool],
@@ -74,16 +75,19 @@ impl<'m> IterationMatrix<'m> {
         v: &DVector<f64>,
         h: f64,
         theta: f64,
+        damping: f64,
     ) -> Self {
         let n = model.bodies.len();
         let mut diag = vec![Matrix6::zeros(); n];
         let mut off: BTreeMap<(usize, usize), Matrix6<f64>> = BTreeMap::new();
+        let damped = 1.0 + h * theta * damping;
         for (i, b) in model.bodies.iter().enumerate() {
             let d = &mut diag[i];
             for k in 0..3 {
-                d[(k, k)] = b.mass;
+                d[(k, k)] = b.mass * damped;
             }
-            d.fixed_view_mut::<3, 3>(3, 3).copy_from(&b.inertia);
+            d.fixed_view_mut::<3, 3>(3, 3)
+                .copy_from(&(b.inertia * damped));
             let om = v.fixed_rows::<3>(6 * i + 3).into_owned();
             let gyro = skew(&om) * b.inertia - skew(&(b.inertia * om));
             let mut rot = d.fixed_view_mut::<3, 3>(3, 3);

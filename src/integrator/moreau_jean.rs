@@ -89,10 +89,13 @@ pub fn velocity_step(
 ) -> VelocityStep {
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
+    // the settling phase's damping −α M v acts in every step that starts within it
+    let alpha = model.settle_damping(t);
     let mut f0 = DVector::zeros(ndof);
     model.wrench(t, poses, v0, &mut f0);
     let mut mv = DVector::zeros(ndof);
     model.mass_times(v0, &mut mv);
+    f0.axpy(-alpha, &mv, 1.0);
     let momentum_scale = mv.norm() + h * f0.norm();
 
     let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
@@ -134,6 +137,10 @@ pub fn velocity_step(
     for it in 0..=params.newton_max_iterations {
         let poses1 = advance_poses(poses, v0, &v, h, theta);
         model.wrench(t + h, &poses1, &v, &mut f1);
+        if alpha > 0.0 {
+            model.mass_times(&v, &mut resid);
+            f1.axpy(-alpha, &resid, 1.0);
+        }
         // R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀
         model.mass_times(&(&v - v0), &mut resid);
         resid.axpy(-h * theta, &f1, 1.0);
@@ -155,7 +162,7 @@ pub fn velocity_step(
             }
         }
         iterations += 1;
-        let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta);
+        let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta, alpha);
         let v_free = &v - w.solve(&resid);
         if let Some(rows_at) = joints {
             // H(q_{k+½}) v_{k+1} = 2b − H(q_{k+½}) v_k

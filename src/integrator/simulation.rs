@@ -77,6 +77,8 @@ pub struct Simulation {
     /// Per candidate, the ring (2 × joint + side) of a clearance-joint guard
     /// (`ClearanceJoint::is_guard`); `None` for every other contact.
     guard_ring: Vec<Option<usize>>,
+    /// Per candidate, whether it loses its friction while the mechanism settles.
+    settle_frictionless: Vec<bool>,
     mask: Vec<bool>,
     minv: Vec<Matrix6<f64>>,
     points: Vec<ContactPoint>,
@@ -108,8 +110,13 @@ impl Simulation {
                 _ => None,
             })
             .collect();
+        let settle_frictionless = candidates
+            .iter()
+            .map(|&c| model.frictionless_while_settling(c))
+            .collect();
         let mut sim = Simulation {
             guard_ring,
+            settle_frictionless,
             minv: inverse_mass(&model, &mask),
             mask,
             impulses: vec![Vector3::zeros(); candidates.len()],
@@ -197,7 +204,30 @@ impl Simulation {
             }
             rows
         };
-        let refs: Vec<&ContactPoint> = active.iter().map(|&i| &self.points[i]).collect();
+        let settling = self
+            .model
+            .settle
+            .as_ref()
+            .is_some_and(|s| self.state.t < s.until);
+        let frictionless: Vec<ContactPoint> = if settling {
+            active
+                .iter()
+                .map(|&i| {
+                    let mut c = self.points[i];
+                    if self.settle_frictionless[i] {
+                        c.mu = 0.0;
+                    }
+                    c
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let refs: Vec<&ContactPoint> = if settling {
+            frictionless.iter().collect()
+        } else {
+            active.iter().map(|&i| &self.points[i]).collect()
+        };
         // a guard's index names a point relative to the current closest point, so its last
         // impulse belongs to another point: start it cold
         let warm: Vec<Vector3<f64>> = active

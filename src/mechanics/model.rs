@@ -29,6 +29,26 @@ pub struct Model {
     pub joints: Vec<Joint>,
     /// Revolute joints with clearance: sets of unilateral contacts.
     pub clearance_joints: Vec<ClearanceJoint>,
+    /// The settling phase of a preloaded mechanism, if the scene has one.
+    pub settle: Option<Settle>,
+}
+
+/// A settling phase (`settle:` in the scene): until `until` every moving body is damped in
+/// proportion to its mass, F = −α M v, and friction may be withdrawn from some contacts. A
+/// preloaded mechanism that starts from its nominal assembly then comes to rest in the
+/// equilibrium its clearances give. Without friction that equilibrium is unique; a
+/// frictional one is any state inside the friction cones, so where the chain stops depends
+/// on the path it settled along, and that path (impacts, bounces, stick–slip) changes with
+/// the step size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settle {
+    /// End of the phase (s).
+    pub until: f64,
+    /// α (1/s).
+    pub damping: f64,
+    /// The contact pairs and clearance joints that keep their friction during the phase
+    /// (by name); `None`: all of them.
+    pub friction: Option<Vec<String>>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
@@ -80,6 +100,31 @@ impl Model {
         self.bodies.iter().flat_map(|b| b.dof_mask()).collect()
     }
 
+    /// The settling phase's damping rate α in the step that starts at `t` (0 outside it).
+    pub fn settle_damping(&self, t: f64) -> f64 {
+        self.settle
+            .as_ref()
+            .filter(|s| t < s.until)
+            .map_or(0.0, |s| s.damping)
+    }
+
+    /// Whether the candidate loses its friction during the settling phase.
+    pub fn frictionless_while_settling(&self, c: Candidate) -> bool {
+        self.settle
+            .as_ref()
+            .and_then(|s| s.friction.as_ref())
+            .is_some_and(|keep| !keep.iter().any(|n| *n == self.candidate_owner(c)))
+    }
+
+    /// The name of the contact pair, joint or clearance joint a candidate belongs to.
+    pub fn candidate_owner(&self, c: Candidate) -> &str {
+        match c {
+            Candidate::Pair { pair, .. } => &self.contacts[pair].name,
+            Candidate::Limit { joint, .. } => &self.joints[joint].name,
+            Candidate::Clearance { joint, .. } => &self.clearance_joints[joint].name,
+        }
+    }
+
     /// Generalized mass times `v` (diag(m I, I_body) per body).
     pub fn mass_times(&self, v: &DVector<f64>, out: &mut DVector<f64>) {
         for (i, b) in self.bodies.iter().enumerate() {
@@ -93,7 +138,8 @@ impl Model {
     }
 
     /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ and the force elements.
-    /// Entries of held degrees of freedom are zero.
+    /// Entries of held degrees of freedom are zero. (The settling damping is the step's:
+    /// `velocity_step` adds it.)
     pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
         out.fill(0.0);
         for (i, b) in self.bodies.iter().enumerate() {

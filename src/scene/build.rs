@@ -9,7 +9,7 @@ use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{
-    BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Shape,
+    BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Settle, Shape,
 };
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde_saphyr::Spanned;
@@ -897,6 +897,32 @@ pub fn apply_integrator(
         .map_err(|(f, m)| SceneError::at(field_line(f), format!("{prefix}.{f}"), m))
 }
 
+/// The contact pairs and clearance joints that keep their friction while settling: names
+/// of the scene's contacts or joints.
+fn settle_friction(model: &Model, names: &Spanned<Vec<Name>>) -> R<Vec<String>> {
+    let known = |n: &str| {
+        model.contacts.iter().any(|c| c.name == n)
+            || model.clearance_joints.iter().any(|j| j.name == n)
+            || model.joints.iter().any(|j| j.name == n)
+    };
+    names
+        .value
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            if known(&n.value) {
+                Ok(n.value.clone())
+            } else {
+                Err(SceneError::at(
+                    line(n),
+                    format!("settle.friction[{i}]"),
+                    format!("unknown contact or joint `{}`", n.value),
+                ))
+            }
+        })
+        .collect()
+}
+
 pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
     if let Some(k) = spec.kind.as_ref().filter(|k| k.value != "mechanism") {
         return Err(SceneError::at(
@@ -976,6 +1002,18 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         }
     }
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
+    if let Some(s) = &spec.settle {
+        model.settle = Some(Settle {
+            until: positive(&s.value.until, Dim::TIME, "settle.until")?,
+            damping: s.value.damping.as_ref().map_or(Ok(0.0), |q| {
+                non_negative(q, Dim::ANGULAR_VELOCITY, "settle.damping")
+            })?,
+            friction: match &s.value.friction {
+                None => None,
+                Some(names) => Some(settle_friction(&model, names)?),
+            },
+        });
+    }
     let record_every = spec
         .record
         .every

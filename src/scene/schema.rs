@@ -32,6 +32,8 @@ pub struct SceneSpec {
     pub joints: Vec<JointSpec>,
     #[serde(default)]
     pub record: RecordSpec,
+    /// A settling phase at the start of the run (a preloaded mechanism's assembly).
+    pub settle: Option<Spanned<SettleSpec>>,
     /// Named outputs of a run (the study's outputs).
     #[serde(default)]
     pub probes: Vec<ProbeSpec>,
@@ -115,6 +117,18 @@ pub struct IntegratorSpec {
 pub struct ToleranceSpec {
     pub tolerance: Option<Q>,
     pub max_iterations: Option<Q>,
+}
+
+/// Until `until`, every moving body is damped by −`damping` · M v, and only the contact
+/// pairs and clearance joints listed in `friction` (default: all) keep their friction
+/// (`mechanics::Settle`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SettleSpec {
+    pub until: Q,
+    /// α, a rate (1/s), default 0.
+    pub damping: Option<Q>,
+    pub friction: Option<Spanned<Vec<Name>>>,
 }
 
 #[derive(Debug, Default, Deserialize)]
