@@ -204,13 +204,10 @@ impl Simulation {
             }
             rows
         };
-        let settling = self
-            .model
-            .settle
-            .as_ref()
-            .is_some_and(|s| self.state.t < s.until);
-        let frictionless: Vec<ContactPoint> = if settling {
-            active
+        // while settling, the contacts that lose their friction enter as copies with μ = 0
+        let settling: Vec<ContactPoint>;
+        let refs: Vec<&ContactPoint> = if self.model.settling(self.state.t).is_some() {
+            settling = active
                 .iter()
                 .map(|&i| {
                     let mut c = self.points[i];
@@ -219,12 +216,8 @@ impl Simulation {
                     }
                     c
                 })
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let refs: Vec<&ContactPoint> = if settling {
-            frictionless.iter().collect()
+                .collect();
+            settling.iter().collect()
         } else {
             active.iter().map(|&i| &self.points[i]).collect()
         };

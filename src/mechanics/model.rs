@@ -100,12 +100,14 @@ impl Model {
         self.bodies.iter().flat_map(|b| b.dof_mask()).collect()
     }
 
+    /// The settling phase, if the step that starts at `t` is in it.
+    pub fn settling(&self, t: f64) -> Option<&Settle> {
+        self.settle.as_ref().filter(|s| t < s.until)
+    }
+
     /// The settling phase's damping rate α in the step that starts at `t` (0 outside it).
     pub fn settle_damping(&self, t: f64) -> f64 {
-        self.settle
-            .as_ref()
-            .filter(|s| t < s.until)
-            .map_or(0.0, |s| s.damping)
+        self.settling(t).map_or(0.0, |s| s.damping)
     }
 
     /// Whether the candidate loses its friction during the settling phase.

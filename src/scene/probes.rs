@@ -18,10 +18,8 @@ fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> {
         .contact_candidates()
         .iter()
         .enumerate()
-        .filter(|(_, c)| match **c {
-            Candidate::Pair { pair, .. } => model.contacts[pair].name == name.value,
-            Candidate::Clearance { joint, .. } => model.clearance_joints[joint].name == name.value,
-            Candidate::Limit { .. } => false,
+        .filter(|(_, &c)| {
+            !matches!(c, Candidate::Limit { .. }) && model.candidate_owner(c) == name.value
         })
         .map(|(i, _)| i)
         .collect();
