@@ -7,7 +7,7 @@
 
 use super::moreau_jean::bilateral_matrix;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
-use crate::mechanics::{Model, Pose};
+use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
 use nalgebra::{DMatrix, DVector, Matrix6, RowVector6, Vector6};
 
@@ -62,6 +62,9 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
 struct Evaluated {
     rows: Vec<BilateralRow>,
     njoint: usize,
+    /// The contact rows whose gap curves sharply across its normal: (row index, the
+    /// lateral displacement as a row, κ).
+    curved: Vec<(usize, BilateralRow, f64)>,
     /// Largest violation (the convergence test) and the sum of squares (the merit).
     max: f64,
     squares: f64,
@@ -71,7 +74,7 @@ fn evaluate_rows(
     model: &Model,
     t: f64,
     poses: &[Pose],
-    contact_rows: &dyn Fn(&[Pose]) -> Vec<BilateralRow>,
+    contact_points: &dyn Fn(&[Pose]) -> Vec<ContactPoint>,
     mode: ContactRows,
 ) -> Evaluated {
     let mut rows = Vec::new();
@@ -79,7 +82,20 @@ fn evaluate_rows(
         j.rows(t, poses, &mut rows);
     }
     let njoint = rows.len();
-    rows.extend(contact_rows(poses));
+    let mut curved = Vec::new();
+    for cp in contact_points(poses) {
+        if let Some(l) = cp.lateral {
+            let row = BilateralRow {
+                a: cp.body1.map(|i| (i, l.g1)),
+                b: cp.body2.map(|i| (i, l.g2)),
+                value: 0.0,
+                rate: 0.0,
+                unit: RowUnit::Length,
+            };
+            curved.push((rows.len(), row, l.kappa));
+        }
+        rows.push(contact_normal_row(&cp));
+    }
     let (mut max, mut squares) = (0.0f64, 0.0);
     for (k, r) in rows.iter().enumerate() {
         let v = if k >= njoint && mode == ContactRows::Inequality {
@@ -93,23 +109,150 @@ fn evaluate_rows(
     Evaluated {
         rows,
         njoint,
+        curved,
         max,
         squares,
+    }
+}
+
+/// M⁻¹ Rᵀ for the rows R (ndof × rows), body block by body block.
+fn inverse_mass_times_transpose(minv: &[Matrix6<f64>], r: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(r.ncols(), r.nrows());
+    for (b, mi) in minv.iter().enumerate() {
+        let blk = mi * r.columns(6 * b, 6).transpose();
+        out.rows_mut(6 * b, 6).copy_from(&blk);
+    }
+    out
+}
+
+/// A curvature term counts once its stiffness Λ κ, against the mass the lateral direction
+/// sees (1 / L M⁻¹ Lᵀ), exceeds this ratio.
+const CURVATURE_RATIO: f64 = 0.1;
+
+/// Fixed-point passes on the multipliers of the curvature terms.
+const CURVATURE_PASSES: usize = 8;
+
+/// The linearised projection problem at the current poses: C, M⁻¹ Cᵀ and the values c.
+struct Linearised<'a> {
+    current: &'a Evaluated,
+    cmat: DMatrix<f64>,
+    mct: DMatrix<f64>,
+    c: DVector<f64>,
+    mode: ContactRows,
+    tolerance: f64,
+}
+
+impl<'a> Linearised<'a> {
+    fn new(
+        current: &'a Evaluated,
+        mask: &[bool],
+        minv: &[Matrix6<f64>],
+        ndof: usize,
+        mode: ContactRows,
+        tolerance: f64,
+    ) -> Self {
+        let (cmat, _) = bilateral_matrix(&current.rows, mask, ndof);
+        let mct = inverse_mass_times_transpose(minv, &cmat);
+        let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
+        Linearised {
+            current,
+            cmat,
+            mct,
+            c,
+            mode,
+            tolerance,
+        }
+    }
+
+    /// Λ from C H⁻¹ Cᵀ Λ = −c (complementarity on the contact rows in `Inequality` mode),
+    /// given H⁻¹ Cᵀ.
+    fn multipliers(&self, hct: &DMatrix<f64>) -> DVector<f64> {
+        let a = &self.cmat * hct;
+        let (n, njoint) = (self.current.rows.len(), self.current.njoint);
+        match self.mode {
+            ContactRows::Inequality if n > njoint => {
+                // inequality rows: 0 ≤ w = c + A Λ ⟂ Λ ≥ 0 (pushes out only)
+                let equality: Vec<bool> = (0..n).map(|k| k < njoint).collect();
+                let mut z = DVector::zeros(n);
+                solve_mixed_pgs(&a, &self.c, &equality, &mut z, 0.1 * self.tolerance, 10_000);
+                z
+            }
+            _ => EqualitySolver::new(a).solve(&(-&self.c)),
+        }
+    }
+
+    /// The Gauss–Newton correction Δν = M⁻¹ Cᵀ Λ.
+    fn gauss_newton(&self) -> DVector<f64> {
+        &self.mct * self.multipliers(&self.mct)
+    }
+
+    /// The sequential-quadratic correction Δν = H⁻¹ Cᵀ Λ, H the mass matrix plus, for each
+    /// sharply curved contact gap (`Lateral`), the Lagrangian's curvature term
+    /// Λₖ κₖ Lₖᵀ Lₖ; `None` where no such term counts. A journal pinched between its bore's
+    /// two rings at a micrometre clearance needs it: the Gauss–Newton step swings the bar
+    /// about its centre of mass, which moves the journal sideways by a hundred clearances
+    /// for a first-order gain, and the line search crawls. H⁻¹ comes from M⁻¹ by Woodbury's
+    /// identity (one row per curved contact), Λ from a few fixed-point passes.
+    fn curved(&self, mask: &[bool], minv: &[Matrix6<f64>], ndof: usize) -> Option<DVector<f64>> {
+        let curved = &self.current.curved;
+        if curved.is_empty() {
+            return None;
+        }
+        let mut lambda = self.multipliers(&self.mct);
+        let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
+        let (lmat, _) = bilateral_matrix(&lateral, mask, ndof);
+        let mlt = inverse_mass_times_transpose(minv, &lmat);
+        let llt = &lmat * &mlt;
+        let lmct = &lmat * &self.mct;
+        let stiffness = |lambda: &DVector<f64>| -> Vec<f64> {
+            curved
+                .iter()
+                .map(|&(k, _, kappa)| lambda[k].max(0.0) * kappa)
+                .collect()
+        };
+        let s = stiffness(&lambda);
+        if (0..s.len()).all(|k| s[k] * llt[(k, k)] < CURVATURE_RATIO) {
+            return None;
+        }
+        let mut hct = self.mct.clone();
+        for _ in 0..CURVATURE_PASSES {
+            let s = stiffness(&lambda);
+            let on: Vec<usize> = (0..s.len()).filter(|&k| s[k] > 0.0).collect();
+            if on.is_empty() {
+                break;
+            }
+            // H⁻¹ Cᵀ = M⁻¹ Cᵀ − M⁻¹ Lᵀ (D⁻¹ + L M⁻¹ Lᵀ)⁻¹ L M⁻¹ Cᵀ, D = diag(Λₖ κₖ)
+            let mut schur = llt.select_rows(&on).select_columns(&on);
+            for (i, &k) in on.iter().enumerate() {
+                schur[(i, i)] += 1.0 / s[k];
+            }
+            let chol = schur.cholesky()?;
+            hct = &self.mct - mlt.select_columns(&on) * chol.solve(&lmct.select_rows(&on));
+            let next = self.multipliers(&hct);
+            let settled = (&next - &lambda).norm() <= 1e-3 * next.norm();
+            lambda = next;
+            if settled {
+                break;
+            }
+        }
+        Some(&hct * lambda)
     }
 }
 
 /// Step halvings tried before an iteration gives up.
 const MAX_HALVINGS: usize = 8;
 
-/// Projects `poses` at time `t`. `contact_rows(poses)` returns the gap and the gradient
-/// blocks of the contacts to project, evaluated at the given poses.
+/// Projects `poses` at time `t`. `contact_points(poses)` returns the contacts to project,
+/// evaluated at the given poses.
 ///
-/// Damped Gauss–Newton: the full step is taken when it lowers the squared violation,
-/// else it is halved (up to `MAX_HALVINGS` times). Where the constraint manifold is
-/// curved on the scale of the correction (a ring contact at a clearance of nanometres,
-/// a journal that crossed its clearance in one large step) the full step overshoots and
-/// the undamped iteration wanders off; the damped one never leaves the poses worse
-/// than it found them.
+/// Damped Gauss–Newton: the full step is taken when it lowers the squared violation.
+/// Else, where a contact's gap bends sharply across its normal, the sequential-quadratic
+/// step (`Linearised::curved`) takes its place, and the step is halved (up to
+/// `MAX_HALVINGS` times). Where the constraint manifold is curved on the scale of the
+/// correction (a ring contact at a clearance of nanometres, a journal that crossed its
+/// clearance in one large step) the full step overshoots and the undamped iteration
+/// wanders off; the damped one never leaves the poses worse than it found them.
+/// Gauss–Newton stays first so that every projection its full step solves is unchanged.
 #[allow(clippy::too_many_arguments)]
 pub fn project(
     model: &Model,
@@ -117,13 +260,13 @@ pub fn project(
     minv: &[Matrix6<f64>],
     t: f64,
     poses: &mut [Pose],
-    contact_rows: &dyn Fn(&[Pose]) -> Vec<BilateralRow>,
+    contact_points: &dyn Fn(&[Pose]) -> Vec<ContactPoint>,
     mode: ContactRows,
     tolerance: f64,
     max_iterations: usize,
 ) -> ProjectionOutcome {
     let ndof = 6 * model.bodies.len();
-    let mut current = evaluate_rows(model, t, poses, contact_rows, mode);
+    let mut current = evaluate_rows(model, t, poses, contact_points, mode);
     let mut out = ProjectionOutcome {
         violation_before: current.max,
         violation_after: current.max,
@@ -140,34 +283,15 @@ pub fn project(
         if it == max_iterations || current.rows.is_empty() {
             break;
         }
-        let rows = &current.rows;
-        let njoint = current.njoint;
-        let (cmat, _) = bilateral_matrix(rows, mask, ndof);
-        // M⁻¹ Cᵀ, body block by body block
-        let mut mct = DMatrix::zeros(ndof, rows.len());
-        for (b, mi) in minv.iter().enumerate() {
-            let blk = mi * cmat.columns(6 * b, 6).transpose();
-            mct.rows_mut(6 * b, 6).copy_from(&blk);
-        }
-        let a = &cmat * &mct;
-        let c = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.value));
-        let lambda = match mode {
-            ContactRows::Inequality if rows.len() > njoint => {
-                // inequality rows: 0 ≤ w = c + A Λ ⟂ Λ ≥ 0 (pushes out only)
-                let equality: Vec<bool> = (0..rows.len()).map(|k| k < njoint).collect();
-                let mut z = DVector::zeros(rows.len());
-                solve_mixed_pgs(&a, &c, &equality, &mut z, 0.1 * tolerance, 10_000);
-                z
-            }
-            _ => EqualitySolver::new(a).solve(&(-&c)),
-        };
-        let dnu = &mct * lambda;
-        if dnu.iter().any(|x| !x.is_finite()) {
+        // the full Gauss–Newton step; where it does not lower the violation and a contact's
+        // gap bends sharply across its normal, the sequential-quadratic step in its place,
+        // halved as needed
+        let linear = Linearised::new(&current, mask, minv, ndof, mode, tolerance);
+        let gauss_newton = linear.gauss_newton();
+        if gauss_newton.iter().any(|x| !x.is_finite()) {
             break;
         }
-        let mut accepted = None;
-        let mut alpha = 1.0;
-        for _ in 0..=MAX_HALVINGS {
+        let mut try_step = |dnu: &DVector<f64>, alpha: f64| {
             for (b, (trial, pose)) in trial_poses.iter_mut().zip(poses.iter()).enumerate() {
                 let d = alpha * Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
                 *trial = if d != Vector6::zeros() {
@@ -176,12 +300,19 @@ pub fn project(
                     *pose
                 };
             }
-            let e = evaluate_rows(model, t, &trial_poses, contact_rows, mode);
-            if e.squares < current.squares {
-                accepted = Some(e);
-                break;
-            }
-            alpha *= 0.5;
+            let e = evaluate_rows(model, t, &trial_poses, contact_points, mode);
+            (e.squares < current.squares).then_some(e)
+        };
+        let mut accepted = try_step(&gauss_newton, 1.0);
+        if accepted.is_none() {
+            let curved = linear
+                .curved(mask, minv, ndof)
+                .filter(|d| d.iter().all(|x| x.is_finite()));
+            let (dnu, first) = match &curved {
+                Some(d) => (d, 0),
+                None => (&gauss_newton, 1),
+            };
+            accepted = (first..=MAX_HALVINGS).find_map(|k| try_step(dnu, 0.5f64.powi(k as i32)));
         }
         let Some(next) = accepted else { break };
         poses.copy_from_slice(&trial_poses);

@@ -4,9 +4,7 @@
 
 use super::moreau_jean::{advance_poses, velocity_step, VelocityStep};
 use super::params::{IntegrationParameters, Scheme};
-use super::projection::{
-    contact_normal_row, inverse_mass, project, ContactRows, ProjectionOutcome,
-};
+use super::projection::{inverse_mass, project, ContactRows, ProjectionOutcome};
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -255,13 +253,13 @@ impl Simulation {
         mode: ContactRows,
     ) -> ProjectionOutcome {
         let model = &self.model;
-        let rows = |ps: &[Pose]| -> Vec<BilateralRow> {
+        let points = |ps: &[Pose]| -> Vec<ContactPoint> {
             let mut pts = Vec::new();
             model.evaluate_candidates(ps, &mut pts);
-            pts.iter()
+            pts.into_iter()
                 .enumerate()
                 .filter(|(i, cp)| which(*i, cp))
-                .map(|(_, cp)| contact_normal_row(cp))
+                .map(|(_, cp)| cp)
                 .collect()
         };
         project(
@@ -270,7 +268,7 @@ impl Simulation {
             &self.minv,
             self.state.t + self.params.h,
             poses,
-            &rows,
+            &points,
             mode,
             self.params.projection_tolerance,
             self.params.projection_max_iterations,

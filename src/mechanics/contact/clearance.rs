@@ -13,7 +13,7 @@
 //!   journal inside the hexagon they circumscribe, instead of letting it slide along the
 //!   closest point's tangent plane and projecting it back from far outside the ring.
 
-use super::{ContactGeometry, ContactPoint};
+use super::{point_row, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
 use crate::mechanics::model::BodyRef;
@@ -154,6 +154,9 @@ impl ClearanceJoint {
                 if guard { 0.0 } else { self.e },
             );
             cp.gap_law = guard;
+            if !guard {
+                cp.lateral = Some(self.lateral(&g, &a_j, &pb, &pj));
+            }
             cp
         } else {
             let j = k - 2;
@@ -190,6 +193,21 @@ impl ClearanceJoint {
                 self.mu,
                 self.e,
             )
+        }
+    }
+
+    /// The ring contact's curvature across its normal: the journal axis's foot (the
+    /// surface point moved in by R_J) displaced along n × a_J, κ = 1/|e| with |e| = R_B − the
+    /// ring's distance to the axis (floored at c/1000: the gap is a cone at |e| = 0, but
+    /// there it is c, far from any projection).
+    fn lateral(&self, g: &ContactGeometry, a_j: &Vector3<f64>, pb: &Pose, pj: &Pose) -> Lateral {
+        let foot = g.point2 - g.normal * self.journal_radius;
+        let dir = g.normal.cross(a_j);
+        let offset = (self.clearance - g.gap).max(1e-3 * self.clearance);
+        Lateral {
+            g1: -point_row(&dir, pb, &foot),
+            g2: point_row(&dir, pj, &foot),
+            kappa: 1.0 / offset,
         }
     }
 

@@ -11,7 +11,7 @@ pub use primitives::{ContactGeometry, Primitive};
 use super::body::Pose;
 use super::model::BodyRef;
 use crate::math::{skew, tangent_basis};
-use nalgebra::{Matrix3, Matrix3x6, Vector3};
+use nalgebra::{Matrix3, Matrix3x6, RowVector6, Vector3};
 
 /// Contact between a primitive on body 1 and one on body 2 (`None` = the ground frame).
 /// The normal points from body 2 towards body 1; the gap is positive when separated.
@@ -45,6 +45,35 @@ pub struct ContactPoint {
     /// (the step would carry the journal through them), so they must stop the journal where
     /// the gap closes, not where it is now.
     pub gap_law: bool,
+    /// How the gap bends across its normal, where that matters to the projection (a bore
+    /// ring against its journal); `None` for a gap that is flat on the scale of a correction.
+    pub lateral: Option<Lateral>,
+}
+
+/// The second-order part of a gap that curves sharply across its normal. A bore ring
+/// against its journal has g = c − |e|, e the offset of the journal axis in the ring plane:
+/// moving the axis by s across the normal lowers the gap by s²/(2|e|). At a clearance of a
+/// micrometre that term dwarfs the linear one for corrections that the mass metric finds
+/// cheap (a long bar swung about its centre of mass moves its journal sideways), so the
+/// projection needs it (`integrator/projection.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lateral {
+    /// Gradient blocks of the lateral displacement s for bodies 1 and 2 (twist coordinates).
+    pub g1: RowVector6<f64>,
+    pub g2: RowVector6<f64>,
+    /// κ in g(q ⊕ Δν) ≈ g + G_N Δν − ½ κ s² (1/m).
+    pub kappa: f64,
+}
+
+/// Gradient (twist coordinates) of the displacement along `dir` of the material point of a
+/// body at `point`: dirᵀ (v + ω × (point − x)).
+pub fn point_row(dir: &Vector3<f64>, pose: &Pose, point: &Vector3<f64>) -> RowVector6<f64> {
+    let lever = skew(&(pose.x - point)) * pose.p.to_rotation_matrix().matrix();
+    let mut row = RowVector6::zeros();
+    row.fixed_columns_mut::<3>(0).copy_from(&dir.transpose());
+    row.fixed_columns_mut::<3>(3)
+        .copy_from(&(dir.transpose() * lever));
+    row
 }
 
 impl ContactPair {
@@ -159,6 +188,7 @@ impl ContactPoint {
             mu,
             e,
             gap_law: false,
+            lateral: None,
         }
     }
 

@@ -255,6 +255,7 @@ impl Joint {
             mu: 0.0,
             e: lim.e,
             gap_law: false,
+            lateral: None,
         }
     }
 
