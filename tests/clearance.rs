@@ -119,16 +119,10 @@ fn ring_journal_gap_matches_brute_force_sampling() {
     assert!((g.gap - c).abs() < 1e-15 && g.normal.iter().all(|x| x.is_finite()));
 }
 
-/// The guards of a ring sit every 60° from its closest point; on aligned axes with the
-/// journal axis at e from the bore axis, the guard at ψ has the planar gap
-/// √(R_B² + |e|² − 2 R_B |e| cos ψ) − R_J, never below the closest point's c − |e|.
-#[test]
-fn ring_guards_sit_every_60_degrees_from_the_closest_point() {
-    use mc_study::mechanics::contact::clearance::ClearanceJoint;
-    use mc_study::mechanics::Pose;
-    let (rj, c) = (5e-3, 7e-5);
-    let rb = rj + c;
-    let joint = ClearanceJoint {
+/// A journal of radius `rj` on body 0 in a fixed bore of clearance `c` (10 mm long, axes
+/// along z through the origin).
+fn pin_in_fixed_bore(rj: f64, c: f64) -> mc_study::mechanics::contact::clearance::ClearanceJoint {
+    mc_study::mechanics::contact::clearance::ClearanceJoint {
         name: "J".into(),
         bore_body: None,
         journal_body: Some(0),
@@ -144,7 +138,18 @@ fn ring_guards_sit_every_60_degrees_from_the_closest_point() {
         rim_points: 4,
         mu: 0.1,
         e: 0.0,
-    };
+    }
+}
+
+/// The guards of a ring sit every 60° from its closest point; on aligned axes with the
+/// journal axis at e from the bore axis, the guard at ψ has the planar gap
+/// √(R_B² + |e|² − 2 R_B |e| cos ψ) − R_J, never below the closest point's c − |e|.
+#[test]
+fn ring_guards_sit_every_60_degrees_from_the_closest_point() {
+    use mc_study::mechanics::Pose;
+    let (rj, c) = (5e-3, 7e-5);
+    let rb = rj + c;
+    let joint = pin_in_fixed_bore(rj, c);
     assert_eq!(joint.candidates(), 2 + 2 * 4 + 2 * 5);
     let e = Vector3::new(3e-5, -5e-5, 0.0);
     let poses = [Pose {
@@ -532,26 +537,9 @@ fn a_journal_outside_its_bore_is_a_modelling_error_not_a_contact() {
 /// and its lateral row must read s. A κ off by two misses by ¼ s²/|e|, 250× the bound.
 #[test]
 fn ring_contact_lateral_curvature_matches_the_exact_gap() {
-    use mc_study::mechanics::contact::clearance::ClearanceJoint;
     use mc_study::mechanics::Pose;
-    let (rj, c) = (5e-3, 1e-6);
-    let joint = ClearanceJoint {
-        name: "J".into(),
-        bore_body: None,
-        journal_body: Some(0),
-        bore_center: Vector3::zeros(),
-        bore_axis: Vector3::z(),
-        bore_length: 10e-3,
-        journal_point: Vector3::zeros(),
-        journal_axis: Vector3::z(),
-        journal_radius: rj,
-        clearance: c,
-        axial_play: 1e-4,
-        flange_radius: 7e-3,
-        rim_points: 4,
-        mu: 0.1,
-        e: 0.0,
-    };
+    let c = 1e-6;
+    let joint = pin_in_fixed_bore(5e-3, c);
     let e = Vector3::new(1.5e-6, -0.8e-6, 0.0);
     let at = |x: Vector3<f64>| {
         [Pose {

@@ -132,7 +132,8 @@ const CURVATURE_RATIO: f64 = 0.1;
 /// Fixed-point passes on the multipliers of the curvature terms.
 const CURVATURE_PASSES: usize = 8;
 
-/// The linearised projection problem at the current poses: C, M⁻¹ Cᵀ and the values c.
+/// The linearised projection problem at the current poses: C, M⁻¹ Cᵀ, the values c and
+/// the Gauss–Newton multipliers.
 struct Linearised<'a> {
     current: &'a Evaluated,
     cmat: DMatrix<f64>,
@@ -140,6 +141,8 @@ struct Linearised<'a> {
     c: DVector<f64>,
     mode: ContactRows,
     tolerance: f64,
+    /// Λ of the Gauss–Newton step (H = M), where the curvature's fixed point starts.
+    lambda: DVector<f64>,
 }
 
 impl<'a> Linearised<'a> {
@@ -154,14 +157,17 @@ impl<'a> Linearised<'a> {
         let (cmat, _) = bilateral_matrix(&current.rows, mask, ndof);
         let mct = inverse_mass_times_transpose(minv, &cmat);
         let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
-        Linearised {
+        let mut linear = Linearised {
             current,
             cmat,
             mct,
             c,
             mode,
             tolerance,
-        }
+            lambda: DVector::zeros(0),
+        };
+        linear.lambda = linear.multipliers(&linear.mct);
+        linear
     }
 
     /// Λ from C H⁻¹ Cᵀ Λ = −c (complementarity on the contact rows in `Inequality` mode),
@@ -183,7 +189,7 @@ impl<'a> Linearised<'a> {
 
     /// The Gauss–Newton correction Δν = M⁻¹ Cᵀ Λ.
     fn gauss_newton(&self) -> DVector<f64> {
-        &self.mct * self.multipliers(&self.mct)
+        &self.mct * &self.lambda
     }
 
     /// The sequential-quadratic correction Δν = H⁻¹ Cᵀ Λ, H the mass matrix plus, for each
@@ -198,7 +204,7 @@ impl<'a> Linearised<'a> {
         if curved.is_empty() {
             return None;
         }
-        let mut lambda = self.multipliers(&self.mct);
+        let mut lambda = self.lambda.clone();
         let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
         let (lmat, _) = bilateral_matrix(&lateral, mask, ndof);
         let mlt = inverse_mass_times_transpose(minv, &lmat);

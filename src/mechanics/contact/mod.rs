@@ -171,12 +171,8 @@ impl ContactPoint {
         let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
         let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
         let jac = |pose: &Pose, sign: f64| -> Matrix3x6<f64> {
-            let mut g = Matrix3x6::zeros();
-            g.fixed_columns_mut::<3>(0).copy_from(&(frame * sign));
-            let lever = skew(&(pose.x - geometry.point1)) * pose.p.to_rotation_matrix().matrix();
-            g.fixed_columns_mut::<3>(3)
-                .copy_from(&(frame * lever * sign));
-            g
+            let row = |d: &Vector3<f64>| point_row(d, pose, &geometry.point1) * sign;
+            Matrix3x6::from_rows(&[row(&n), row(&t1), row(&t2)])
         };
         ContactPoint {
             geometry,
