@@ -254,10 +254,11 @@ const MAX_HALVINGS: usize = 8;
 /// Damped Gauss–Newton: the full step is taken when it lowers the squared violation, the
 /// half step when it at least halves it. Else, where a contact's gap bends sharply across
 /// its normal, the sequential-quadratic step (`Linearised::curved`) takes their place, and
-/// the step is halved (up to `MAX_HALVINGS` times). Where the constraint manifold is curved on the scale of the
-/// correction (a ring contact at a clearance of nanometres, a journal that crossed its
-/// clearance in one large step) the full step overshoots and the undamped iteration
-/// wanders off; the damped one never leaves the poses worse than it found them.
+/// the step is halved (up to `MAX_HALVINGS` times). Where the constraint manifold is
+/// curved on the scale of the correction (a ring contact at a clearance of nanometres, a
+/// journal that crossed its clearance in one large step) the full step overshoots and the
+/// undamped iteration wanders off; the damped one never leaves the poses worse than it
+/// found them.
 /// Gauss–Newton stays first so that the projections its steps solve keep their path (the
 /// quadratic step whenever it counted moved c60's trip by half a σ); the half step's test
 /// keeps it first at nanometre clearances too, where every ring is sharply curved and the
