@@ -85,14 +85,7 @@ fn evaluate_rows(
     let mut curved = Vec::new();
     for cp in contact_points(poses) {
         if let Some(l) = cp.lateral {
-            let row = BilateralRow {
-                a: cp.body1.map(|i| (i, l.g1)),
-                b: cp.body2.map(|i| (i, l.g2)),
-                value: 0.0,
-                rate: 0.0,
-                unit: RowUnit::Length,
-            };
-            curved.push((rows.len(), row, l.kappa));
+            curved.push((rows.len(), contact_row(&cp, l.g1, l.g2, 0.0), l.kappa));
         }
         rows.push(contact_normal_row(&cp));
     }
@@ -259,6 +252,7 @@ const MAX_HALVINGS: usize = 8;
 /// journal that crossed its clearance in one large step) the full step overshoots and the
 /// undamped iteration wanders off; the damped one never leaves the poses worse than it
 /// found them.
+///
 /// Gauss–Newton stays first so that the projections its steps solve keep their path (the
 /// quadratic step whenever it counted moved c60's trip by half a σ); the half step's test
 /// keeps it first at nanometre clearances too, where every ring is sharply curved and the
@@ -339,12 +333,26 @@ pub fn project(
 }
 
 /// Normal rows (gap and its gradient) of contact points, as bilateral rows.
-pub fn contact_normal_row(cp: &crate::mechanics::ContactPoint) -> BilateralRow {
-    let row = |g: &nalgebra::Matrix3x6<f64>| -> RowVector6<f64> { g.row(0).into_owned() };
+pub fn contact_normal_row(cp: &ContactPoint) -> BilateralRow {
+    contact_row(
+        cp,
+        cp.g1.row(0).into_owned(),
+        cp.g2.row(0).into_owned(),
+        cp.gap(),
+    )
+}
+
+/// A length row on a contact's two bodies, with the gradient blocks `g1`, `g2`.
+fn contact_row(
+    cp: &ContactPoint,
+    g1: RowVector6<f64>,
+    g2: RowVector6<f64>,
+    value: f64,
+) -> BilateralRow {
     BilateralRow {
-        a: cp.body1.map(|i| (i, row(&cp.g1))),
-        b: cp.body2.map(|i| (i, row(&cp.g2))),
-        value: cp.gap(),
+        a: cp.body1.map(|i| (i, g1)),
+        b: cp.body2.map(|i| (i, g2)),
+        value,
         rate: 0.0,
         unit: RowUnit::Length,
     }
