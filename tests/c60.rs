@@ -58,17 +58,20 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
     let strike = output(&o, &names, "strike_time");
     let trip = output(&o, &names, "trip_time");
     let opening = output(&o, &names, "contact_opening_time");
-    // the plunger starts at 4 ms and closes the gap FC-6 at 1 m/s; the strike is timed
-    // within its step (10 µs), here to 1 µs: FC-6 is measured between two body points, the
-    // contact's gap along its normal, and the bar creeps under its spring
+    // the coil's force rises to 6 N over 50 µs from 4 ms and drives the 2 g plunger on its
+    // frictionless guide across the gap FC-6: x = a τ²/6 + a τ/2 s + a/2 s² after the rise,
+    // a = F / m. The strike is timed within its step (10 µs), here to 2 µs (6 µm at the
+    // plunger's 3 m/s): FC-6 is measured between two body points, the contact's gap along
+    // its normal
     let fc6 = output(&o, &names, "FC6_bar_plunger_x");
-    println!(
-        "strike at {strike} s, 4 ms + FC-6 / (1 m/s) = {} s",
-        4e-3 + fc6
-    );
+    let (a, rise) = (6.0 / 2e-3, 50e-6);
+    let (x_rise, v_rise) = (a * rise * rise / 6.0, a * rise / 2.0);
+    let after_rise = (-v_rise + (v_rise * v_rise + 2.0 * a * (fc6 - x_rise)).sqrt()) / a;
+    let expected = 4e-3 + rise + after_rise;
+    println!("strike at {strike} s, the plunger's free flight across FC-6: {expected} s");
     assert!(
-        (strike - (4e-3 + fc6 / 1.0)).abs() < 3e-6,
-        "strike at {strike} s, gap {fc6} m"
+        (strike - expected).abs() < 2e-6,
+        "strike at {strike} s, expected {expected} s from the gap {fc6} m"
     );
     assert!(
         strike < trip && trip < opening,
@@ -83,21 +86,17 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
 
 /// With frictionless joints (the ideal joint has no friction), every output tends to that
 /// of the ideal-joint mechanism as the clearances close: at c = 1e-6 mm (1 nm) all ten
-/// outputs agree to 1e-3 relative. FC-1…FC-6 converge at first order (asserted: at least
-/// 30-fold per 100-fold in c; 65-fold and 45-fold measured). At 1 nm one step carries a
-/// journal across its clearance: the ring guards keep it in its bore. At the nominal
-/// 0.07 mm FC-1 and FC-4 differ by percents: the comparison resolves the clearance effect
-/// it checks.
-///
-/// Both mechanisms run at h = 2.5 µs, not the scene's 10 µs: the trip phase is decided by
-/// single steps (the strike lands on a step boundary). The trip time and tripping force
-/// differ by 3.7e-4 and 9.6e-4 at 10 µs, 3.2e-4 and 4.0e-3 at 5 µs, 2.3e-4 and 4.7e-5 at
-/// 2.5 µs; the tripping force (the push's impulse over its duration) also moves by parts
-/// in a thousand with the projection's path (studies/c60/README.md, "Checks").
+/// outputs agree to 1e-3 relative (the trip and opening times to 1e-4, the tripping force
+/// to 5e-4). The geometric FCs converge at first order (asserted: at least 50-fold per
+/// 100-fold in c; 109-fold and 92-fold measured), FC-1 slower (asserted 10-fold; 14- and
+/// 19-fold measured): the 1 nm journals chatter without friction, and the main contact's
+/// force with them. At 1 nm one step carries a journal across its clearance: the ring
+/// guards keep it in its bore. At the nominal 0.07 mm FC-1 and FC-4 differ by percents:
+/// the comparison resolves the clearance effect it checks. Both mechanisms run at the
+/// scene's step.
 #[test]
 fn vanishing_clearances_give_the_ideal_mechanism() {
-    let text = scene_text().replace("  h: 10 us", "  h: 2.5 us");
-    assert_ne!(text, scene_text());
+    let text = scene_text();
     let ideal_text = text.replace("type: revolute-clearance", "type: revolute");
     assert_ne!(ideal_text, text);
     let (ideal, names) = run(&subject(&ideal_text), &[]);
@@ -121,12 +120,12 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
             .map(|(x, y)| (x / y - 1.0).abs())
             .collect()
     };
-    // the worst error of FC-1…FC-6
-    let worst = |e: &[f64]| {
+    // the worst error of the named outputs
+    let worst = |e: &[f64], outputs: &[&str]| {
         names
             .iter()
             .zip(e)
-            .filter(|(n, _)| n.starts_with("FC"))
+            .filter(|(n, _)| outputs.iter().any(|o| n.starts_with(o)))
             .fold(0.0f64, |w, (_, &x)| w.max(x))
     };
     let (coarse, fine, finest) = (errors_at(1e-5), errors_at(1e-7), errors_at(1e-9));
@@ -145,12 +144,27 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
             coarse[k]
         );
     }
+    // the geometric FCs at first order (100-fold per 100-fold in c; asserted 50-fold)
+    let geometric = ["FC2", "FC3", "FC4", "FC5", "FC6"];
+    let (g0, g1, g2) = (
+        worst(&coarse, &geometric),
+        worst(&fine, &geometric),
+        worst(&finest, &geometric),
+    );
     assert!(
-        worst(&fine) < worst(&coarse) / 30.0 && worst(&finest) < worst(&fine) / 30.0,
-        "worst FC relative error {:e} at 10 µm, {:e} at 100 nm, {:e} at 1 nm",
-        worst(&coarse),
-        worst(&fine),
-        worst(&finest)
+        g1 < g0 / 50.0 && g2 < g1 / 50.0,
+        "worst of FC-2…FC-6: relative error {g0:e} at 10 µm, {g1:e} at 100 nm, {g2:e} at 1 nm"
+    );
+    // FC-1, a force, falls by at least 10-fold per 100-fold in c: the frictionless 1 nm
+    // journals chatter, and the main contact's force with them (±0.2 N a step)
+    let (f0, f1, f2) = (
+        worst(&coarse, &["FC1"]),
+        worst(&fine, &["FC1"]),
+        worst(&finest, &["FC1"]),
+    );
+    assert!(
+        f1 < f0 / 10.0 && f2 < f1 / 10.0,
+        "FC-1: relative error {f0:e} at 10 µm, {f1:e} at 100 nm, {f2:e} at 1 nm"
     );
     let nominal = errors_at(0.07e-3);
     let fc = |n: &str| names.iter().position(|x| x == n).unwrap();
