@@ -60,7 +60,7 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
     let opening = output(&o, &names, "contact_opening_time");
     // the coil's force rises to 6 N over 50 µs from 4 ms and drives the 2 g plunger on its
     // frictionless guide across the gap FC-6: x = a τ²/6 + a τ/2 s + a/2 s² after the rise,
-    // a = F / m. The strike is timed within its step (10 µs), here to 2 µs (6 µm at the
+    // a = F / m. The strike is timed within its step (5 µs), here to 2 µs (6 µm at the
     // plunger's 3 m/s): FC-6 is measured between two body points, the contact's gap along
     // its normal
     let fc6 = output(&o, &names, "FC6_bar_plunger_x");

@@ -315,7 +315,10 @@ pub fn project(
         // a step that at least halves the squared violation (the linear model promises it
         // falls to nothing, a quarter for the half step) is kept outright: the
         // linearisation holds on its scale
-        let halves = |step: &Option<(Evaluated, Vec<Pose>)>| matches!(step, Some((e, _)) if e.squares <= 0.5 * current.squares);
+        let halves = |step: &Option<(Evaluated, Vec<Pose>)>| {
+            step.as_ref()
+                .is_some_and(|(e, _)| e.squares <= 0.5 * current.squares)
+        };
         let full = try_step(&gauss_newton, 1.0);
         let accepted = if halves(&full) {
             full
