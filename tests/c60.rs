@@ -144,24 +144,17 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
             coarse[k]
         );
     }
+    // the worst error of the named outputs at 10 µm, 100 nm and 1 nm
+    let ladder = |outputs: &[&str]| [&coarse, &fine, &finest].map(|e| worst(e, outputs));
     // the geometric FCs at first order (100-fold per 100-fold in c; asserted 50-fold)
-    let geometric = ["FC2", "FC3", "FC4", "FC5", "FC6"];
-    let (g0, g1, g2) = (
-        worst(&coarse, &geometric),
-        worst(&fine, &geometric),
-        worst(&finest, &geometric),
-    );
+    let [g0, g1, g2] = ladder(&["FC2", "FC3", "FC4", "FC5", "FC6"]);
     assert!(
         g1 < g0 / 50.0 && g2 < g1 / 50.0,
         "worst of FC-2…FC-6: relative error {g0:e} at 10 µm, {g1:e} at 100 nm, {g2:e} at 1 nm"
     );
     // FC-1, a force, falls by at least 10-fold per 100-fold in c: the frictionless 1 nm
     // journals chatter, and the main contact's force with them (±0.2 N a step)
-    let (f0, f1, f2) = (
-        worst(&coarse, &["FC1"]),
-        worst(&fine, &["FC1"]),
-        worst(&finest, &["FC1"]),
-    );
+    let [f0, f1, f2] = ladder(&["FC1"]);
     assert!(
         f1 < f0 / 10.0 && f2 < f1 / 10.0,
         "FC-1: relative error {f0:e} at 10 µm, {f1:e} at 100 nm, {f2:e} at 1 nm"

@@ -319,6 +319,10 @@ pub fn project(
             step.as_ref()
                 .is_some_and(|(e, _)| e.squares <= 0.5 * current.squares)
         };
+        // the step `dnu` halved from 2⁻ᶠⁱʳˢᵗ on until one lowers the violation
+        let line_search = |dnu: &DVector<f64>, first: usize| {
+            (first..=MAX_HALVINGS).find_map(|k| try_step(dnu, 0.5f64.powi(k as i32)))
+        };
         let full = try_step(&gauss_newton, 1.0);
         let accepted = if halves(&full) {
             full
@@ -330,15 +334,10 @@ pub fn project(
                 linear
                     .curved(mask, minv, ndof)
                     .filter(|d| d.iter().all(|x| x.is_finite()))
-                    .and_then(|d| {
-                        (0..=MAX_HALVINGS).find_map(|k| try_step(&d, 0.5f64.powi(k as i32)))
-                    })
+                    .and_then(|d| line_search(&d, 0))
                     .or(full)
                     .or(half)
-                    .or_else(|| {
-                        (2..=MAX_HALVINGS)
-                            .find_map(|k| try_step(&gauss_newton, 0.5f64.powi(k as i32)))
-                    })
+                    .or_else(|| line_search(&gauss_newton, 2))
             }
         };
         let Some((next, trial)) = accepted else { break };
