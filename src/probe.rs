@@ -91,6 +91,9 @@ pub enum Reduce {
     At,
     Max,
     Min,
+    /// Time-weighted: each step's value (a contact force is the step's impulse / h) counts
+    /// for the part of its interval inside the window, so a window's mean does not jump by
+    /// a step's share when one of its ends crosses a step boundary.
     Mean,
 }
 
@@ -123,6 +126,8 @@ struct Progress {
     value: Option<f64>,
     /// Events: occurrences so far; values: samples in the window.
     count: usize,
+    /// `Mean`: the time the samples cover inside the window (s).
+    weight: f64,
     /// Events: whether the contact was closed after the previous step; values: running
     /// reduction.
     closed: bool,
@@ -137,10 +142,10 @@ struct Progress {
 impl Progress {
     /// The window's max, min or mean, if it held a sample.
     fn reduced(&self, reduce: Reduce) -> Option<f64> {
-        (self.count > 0).then(|| match reduce {
-            Reduce::Mean => self.acc / self.count as f64,
-            _ => self.acc,
-        })
+        match reduce {
+            Reduce::Mean => (self.weight > 0.0).then(|| self.acc / self.weight),
+            _ => (self.count > 0).then_some(self.acc),
+        }
     }
 }
 
@@ -162,6 +167,8 @@ fn closing_delay(gap: f64, u: f64, h: f64) -> f64 {
 pub struct ProbeRecorder<'a> {
     probes: &'a [Probe],
     progress: Vec<Progress>,
+    /// The previous observation's time: the step just observed covers (last_t, t].
+    last_t: Option<f64>,
 }
 
 impl<'a> ProbeRecorder<'a> {
@@ -169,6 +176,7 @@ impl<'a> ProbeRecorder<'a> {
         ProbeRecorder {
             probes,
             progress: vec![Progress::default(); probes.len()],
+            last_t: None,
         }
     }
 
@@ -288,6 +296,47 @@ impl<'a> ProbeRecorder<'a> {
                 self.progress[i].previous = Some((t, v));
                 continue;
             }
+            if *reduce == Reduce::Mean {
+                // ∫ value dt over [from, to] / (to − from): the step just taken covers
+                // (last_t, t] (the initial state covers nothing) and counts for its overlap
+                // with the window, except that a contact force counts its whole impulse in
+                // the step where a `from` event falls: the impulse is that of the contact
+                // the event closed (a `closes` event is timed within its step). A `from`
+                // event timed before the step's start (a contact that touched in the step
+                // before) counts from the step's start: earlier steps were observed before
+                // it was known.
+                let Some(t_prev) = self.last_t else {
+                    continue;
+                };
+                let t1 = to.and_then(|r| self.time(r));
+                let t0 = match from {
+                    None => Some(f64::NEG_INFINITY),
+                    Some(r) => self.time(*r),
+                };
+                let g = &mut self.progress[i];
+                if t1.is_some_and(|t1| t_prev >= t1) {
+                    g.value = g.reduced(Reduce::Mean);
+                    continue;
+                }
+                let Some(t0) = t0 else {
+                    continue;
+                };
+                let w = t.min(t1.unwrap_or(f64::INFINITY)) - t_prev.max(t0);
+                if w > 0.0 {
+                    let opened_by_event = matches!(from, Some(TimeRef::Probe(_))) && t0 > t_prev;
+                    let whole_impulse =
+                        opened_by_event && matches!(measure, Measure::ContactForce(_));
+                    let covered = if whole_impulse {
+                        t.min(t1.unwrap_or(f64::INFINITY)) - t_prev
+                    } else {
+                        w
+                    };
+                    g.acc += covered * measure.value(sim);
+                    g.weight += w;
+                    g.count += 1;
+                }
+                continue;
+            }
             let started = match from {
                 None => true,
                 Some(r) => self.time(*r).is_some_and(|t0| t >= t0 - half_step),
@@ -307,11 +356,11 @@ impl<'a> ProbeRecorder<'a> {
             g.acc = match (g.count, reduce) {
                 (0, _) => v,
                 (_, Reduce::Max) => g.acc.max(v),
-                (_, Reduce::Min) => g.acc.min(v),
-                _ => g.acc + v,
+                _ => g.acc.min(v),
             };
             g.count += 1;
         }
+        self.last_t = Some(t);
     }
 
     /// Whether every probe is known, so that the run can stop early.
