@@ -92,8 +92,9 @@ pub enum Reduce {
     Max,
     Min,
     /// Time-weighted: each step's value (a contact force is the step's impulse / h) counts
-    /// for the part of its interval inside the window, so a window's mean does not jump by
-    /// a step's share when one of its ends crosses a step boundary.
+    /// for the part of its interval inside the window (a contact force for its whole
+    /// impulse in the step of a `from` event), so a window's mean does not jump by a step's
+    /// share when one of its ends crosses a step boundary.
     Mean,
 }
 
@@ -321,16 +322,13 @@ impl<'a> ProbeRecorder<'a> {
                 let Some(t0) = t0 else {
                     continue;
                 };
-                let w = t.min(t1.unwrap_or(f64::INFINITY)) - t_prev.max(t0);
+                let end = t.min(t1.unwrap_or(f64::INFINITY));
+                let w = end - t_prev.max(t0);
                 if w > 0.0 {
                     let opened_by_event = matches!(from, Some(TimeRef::Probe(_))) && t0 > t_prev;
                     let whole_impulse =
                         opened_by_event && matches!(measure, Measure::ContactForce(_));
-                    let covered = if whole_impulse {
-                        t.min(t1.unwrap_or(f64::INFINITY)) - t_prev
-                    } else {
-                        w
-                    };
+                    let covered = if whole_impulse { end - t_prev } else { w };
                     g.acc += covered * measure.value(sim);
                     g.weight += w;
                     g.count += 1;
@@ -356,6 +354,7 @@ impl<'a> ProbeRecorder<'a> {
             g.acc = match (g.count, reduce) {
                 (0, _) => v,
                 (_, Reduce::Max) => g.acc.max(v),
+                // `Min` (a mean accumulates above, `At` before)
                 _ => g.acc.min(v),
             };
             g.count += 1;
