@@ -642,3 +642,28 @@ fn a_journal_pinched_between_its_rings_projects_without_swinging_the_bar() {
     assert!(outcome.converged && outcome.iterations <= 5, "{outcome:?}");
     assert!(across < c, "the journal moved {across:e} m across its bore");
 }
+
+/// The projection re-evaluates only the candidates it may project
+/// (`Model::evaluate_selected`): each must be exactly what evaluating every candidate gives,
+/// for runs of one clearance joint's points, single points and contact-pair points alike.
+#[test]
+fn a_selection_of_candidates_evaluates_as_all_of_them_do() {
+    let mut sim = simulation(bundled("c60"));
+    sim.run_until(1e-3, |_, _| {}).unwrap();
+    let (model, poses) = (&sim.model, &sim.state.poses);
+    let all = model.contact_candidates();
+    let mut every = Vec::new();
+    model.evaluate_candidates(poses, &mut every);
+    // every third candidate, and a run of consecutive ones
+    let picked: Vec<usize> = (0..all.len())
+        .filter(|i| i % 3 == 0 || (40..52).contains(i))
+        .collect();
+    let selected: Vec<_> = picked.iter().map(|&i| all[i]).collect();
+    let mut some = Vec::new();
+    model.evaluate_selected(poses, &selected, &mut some);
+    assert_eq!(some.len(), picked.len());
+    for (&i, p) in picked.iter().zip(&some) {
+        // Debug prints every float exactly
+        assert_eq!(format!("{p:?}"), format!("{:?}", every[i]), "candidate {i}");
+    }
+}

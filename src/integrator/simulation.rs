@@ -244,21 +244,23 @@ impl Simulation {
         )
     }
 
-    /// Projects `poses` at t + h: joints, plus the contacts chosen by `which` (given the
-    /// contact points at those poses).
+    /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
+    /// indices) that `which` chooses, given their contact points at those poses.
     fn project_poses(
         &self,
         poses: &mut [Pose],
+        pool: &[usize],
         which: &dyn Fn(usize, &ContactPoint) -> bool,
         mode: ContactRows,
     ) -> ProjectionOutcome {
         let model = &self.model;
+        let candidates: Vec<Candidate> = pool.iter().map(|&i| self.candidates[i]).collect();
         let points = |ps: &[Pose]| -> Vec<ContactPoint> {
-            let mut pts = Vec::new();
-            model.evaluate_candidates(ps, &mut pts);
-            pts.into_iter()
-                .enumerate()
-                .filter(|(i, cp)| which(*i, cp))
+            let mut pts = Vec::with_capacity(pool.len());
+            model.evaluate_selected(ps, &candidates, &mut pts);
+            pool.iter()
+                .zip(pts)
+                .filter(|(&i, cp)| which(i, cp))
                 .map(|(_, cp)| cp)
                 .collect()
         };
@@ -299,10 +301,12 @@ impl Simulation {
                 let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
-                    let mut set = vec![false; self.points.len()];
-                    active.iter().for_each(|&i| set[i] = true);
-                    report.projection =
-                        self.project_poses(&mut poses, &|i, _| set[i], ContactRows::Inequality);
+                    report.projection = self.project_poses(
+                        &mut poses,
+                        &active,
+                        &|_, _| true,
+                        ContactRows::Inequality,
+                    );
                 }
                 (active, vs, poses, None)
             }
@@ -420,11 +424,14 @@ impl Simulation {
                 closed[i] =
                     vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
             }
-            let guard_ring = &self.guard_ring;
-            let selected = |i: usize, cp: &ContactPoint| {
-                in_active[i] && guard_ring[i].is_none() && (closed[i] || cp.gap() < 0.0)
-            };
-            report.projection = self.project_poses(&mut poses, &selected, ContactRows::Equality);
+            let pool: Vec<usize> = active
+                .iter()
+                .copied()
+                .filter(|&i| self.guard_ring[i].is_none())
+                .collect();
+            let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
+            report.projection =
+                self.project_poses(&mut poses, &pool, &selected, ContactRows::Equality);
             report.active_set_passes = pass;
             // activation from the end-of-step position
             let mut after = Vec::new();

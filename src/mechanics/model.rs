@@ -228,6 +228,41 @@ impl Model {
         }
     }
 
+    /// The candidates `selected` (in the order of `contact_candidates`) evaluated at
+    /// `poses` into `out`, exactly as `evaluate_candidates` evaluates them: the projection
+    /// re-evaluates its few active contacts at every trial pose, not all the candidates.
+    pub fn evaluate_selected(
+        &self,
+        poses: &[Pose],
+        selected: &[Candidate],
+        out: &mut Vec<ContactPoint>,
+    ) {
+        out.clear();
+        let mut rest = selected;
+        while let Some((&first, tail)) = rest.split_first() {
+            rest = tail;
+            match first {
+                Candidate::Pair { pair, point } => {
+                    out.push(self.contacts[pair].evaluate(point, poses))
+                }
+                Candidate::Limit { joint, upper } => {
+                    out.push(self.joints[joint].limit_point(upper, poses))
+                }
+                Candidate::Clearance { joint, point } => {
+                    // this joint's run of points, placed once
+                    let same = |c: &Candidate| match *c {
+                        Candidate::Clearance { joint: j, point } if j == joint => Some(point),
+                        _ => None,
+                    };
+                    let run = rest.iter().map_while(same).count();
+                    let points = std::iter::once(point).chain(rest.iter().map_while(same));
+                    self.clearance_joints[joint].evaluate_points(poses, points, out);
+                    rest = &rest[run..];
+                }
+            }
+        }
+    }
+
     /// A readable name of the candidate for outputs: `floor`, `box[3]`, `J1.upper`.
     pub fn candidate_name(&self, c: Candidate) -> String {
         match c {

@@ -118,8 +118,18 @@ impl ClearanceJoint {
 
     /// Every candidate, in order, appended to `out` (the joint is placed once).
     pub fn evaluate_all(&self, poses: &[Pose], out: &mut Vec<ContactPoint>) {
+        self.evaluate_points(poses, 0..self.candidates(), out);
+    }
+
+    /// The candidate points `points` at `poses`, placed once for all of them.
+    pub fn evaluate_points(
+        &self,
+        poses: &[Pose],
+        points: impl Iterator<Item = usize>,
+        out: &mut Vec<ContactPoint>,
+    ) {
         let placed = self.place(poses);
-        out.extend((0..self.candidates()).map(|k| self.point(k, &placed)));
+        out.extend(points.map(|k| self.point(k, &placed)));
     }
 
     fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
