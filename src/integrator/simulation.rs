@@ -138,9 +138,10 @@ impl Simulation {
     fn update_geometry(&mut self, points: Option<Vec<ContactPoint>>) {
         match points {
             Some(points) => self.points = points,
-            None => self
-                .model
-                .evaluate_candidates(&self.state.poses, &mut self.points),
+            None => {
+                self.model
+                    .evaluate_selected(&self.state.poses, &self.candidates, &mut self.points)
+            }
         }
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
@@ -435,7 +436,8 @@ impl Simulation {
             report.active_set_passes = pass;
             // activation from the end-of-step position
             let mut after = Vec::new();
-            self.model.evaluate_candidates(&poses, &mut after);
+            self.model
+                .evaluate_selected(&poses, &self.candidates, &mut after);
             let new: Vec<usize> = (0..after.len())
                 .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();

@@ -214,23 +214,15 @@ impl Model {
     }
 
     /// Every candidate of `contact_candidates`, in its order, evaluated at `poses` into
-    /// `out` (each clearance joint placed once for all its points).
+    /// `out`. (It lists the candidates anew; `Simulation` keeps its list and calls
+    /// `evaluate_selected` with it.)
     pub fn evaluate_candidates(&self, poses: &[Pose], out: &mut Vec<ContactPoint>) {
-        out.clear();
-        for c in &self.contacts {
-            out.extend((0..c.candidates()).map(|k| c.evaluate(k, poses)));
-        }
-        for j in self.joints.iter().filter(|j| j.limits.is_some()) {
-            out.extend([false, true].map(|upper| j.limit_point(upper, poses)));
-        }
-        for j in &self.clearance_joints {
-            j.evaluate_all(poses, out);
-        }
+        self.evaluate_selected(poses, &self.contact_candidates(), out);
     }
 
     /// The candidates `selected` (in the order of `contact_candidates`) evaluated at
-    /// `poses` into `out`, exactly as `evaluate_candidates` evaluates them: the projection
-    /// re-evaluates its few active contacts at every trial pose, not all the candidates.
+    /// `poses` into `out`, each clearance joint placed once for its run of points: all of
+    /// them at a step's start and end, the projection's few active ones at its trial poses.
     pub fn evaluate_selected(
         &self,
         poses: &[Pose],

@@ -116,12 +116,8 @@ impl ClearanceJoint {
         self.point(k, &self.place(poses))
     }
 
-    /// Every candidate, in order, appended to `out` (the joint is placed once).
-    pub fn evaluate_all(&self, poses: &[Pose], out: &mut Vec<ContactPoint>) {
-        self.evaluate_points(poses, 0..self.candidates(), out);
-    }
-
-    /// The candidate points `points` at `poses`, placed once for all of them.
+    /// The candidate points `points` at `poses`, appended to `out` in that order (the
+    /// joint is placed once for all of them).
     pub fn evaluate_points(
         &self,
         poses: &[Pose],
