@@ -125,7 +125,7 @@ pub struct Probe {
 struct Progress {
     /// The final value, once known.
     value: Option<f64>,
-    /// Events: occurrences so far; values: samples in the window.
+    /// Events: occurrences so far; `Max`, `Min`: samples in the window.
     count: usize,
     /// `Mean`: the time the samples cover inside the window (s).
     weight: f64,
@@ -331,7 +331,6 @@ impl<'a> ProbeRecorder<'a> {
                     let covered = if whole_impulse { end - t_prev } else { w };
                     g.acc += covered * measure.value(sim);
                     g.weight += w;
-                    g.count += 1;
                 }
                 continue;
             }
