@@ -269,3 +269,44 @@ fn joint_limits_stop_the_swing() {
         }
     }
 }
+
+/// A bar pinned at one end and resting at the other on a support shares its weight by the
+/// lever rule: m g/2 on each. The contact's response is constrained by the pin (the joint
+/// rows are eliminated), and the pin's reaction is what the contact leaves: a wrong sign in
+/// either gives 0 or 3/2 m g at the pin.
+#[test]
+fn a_pinned_bar_on_a_support_shares_its_weight_by_the_lever_rule() {
+    let yaml = "
+name: lever
+duration: 0.2 s
+gravity: [0, -9.81, 0]
+integrator: { h: 1 ms, scheme: combined-projection }
+bodies:
+  - { name: bar, mass: 1 kg, shape: { box: { size: [1 m, 20 mm, 20 mm] } }, position: [0.5 m, 0, 0] }
+joints:
+  - { name: pin, type: revolute, body_a: ground, body_b: bar, anchor: [0, 0, 0], axis: [0, 0, 1] }
+contacts:
+  - name: support
+    body: bar
+    shape: { sphere: { radius: 10 mm, center: [0.5 m, 0, 0] } }
+    against: ground
+    against_shape: { box: { size: [0.1 m, 0.1 m, 0.1 m], center: [1 m, -60 mm, 0] } }
+    mu: 0.5
+    e: 0
+";
+    let scene = mc_study::scene::Scene::from_yaml(yaml, "lever").unwrap();
+    let h = scene.params.h;
+    let mut sim = simulation(scene);
+    sim.run_until(0.2, |_, _| {}).unwrap();
+    let half_weight = 0.5 * 1.0 * G * h;
+    let support: f64 = sim.impulses().iter().map(|p| p.x).sum();
+    let pin = sim.joint_impulses();
+    eprintln!("support {support:.9e}, pin {pin:?}, m g h/2 {half_weight:.9e}");
+    assert!((support - half_weight).abs() < 1e-6 * half_weight);
+    // the pin's rows: world x, y, z, then the two angular rows
+    assert!((pin[1] - half_weight).abs() < 1e-6 * half_weight);
+    for k in [0, 2, 3, 4] {
+        assert!(pin[k].abs() < 1e-9 * half_weight, "row {k}: {}", pin[k]);
+    }
+    assert!(sim.stats.max_penetration < 1e-9);
+}

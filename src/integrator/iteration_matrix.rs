@@ -104,6 +104,9 @@ impl<'m> IterationMatrix<'m> {
         } else {
             (vec![0.0; 6 * n], vec![0.0; 6 * n])
         };
+        // perturbed copies of the state, restored after each difference
+        let mut pert_poses = poses.to_vec();
+        let mut pert_twists = v.as_slice().to_vec();
         for f in stiff {
             let by_pose = f.depends_on_pose();
             let by_vel = f.depends_on_velocity();
@@ -114,8 +117,9 @@ impl<'m> IterationMatrix<'m> {
                 .copied()
                 .filter(|&i| mask[6 * i..6 * i + 6].iter().any(|&m| m))
                 .collect();
+            let first_dof = if f.rotational_only() { 3 } else { 0 };
             for &b in &bodies {
-                for k in 0..6 {
+                for k in first_dof..6 {
                     if !mask[6 * b + k] {
                         continue;
                     }
@@ -128,19 +132,17 @@ impl<'m> IterationMatrix<'m> {
                         buf_p.fill(0.0);
                         buf_m.fill(0.0);
                         if wrt_pose {
-                            let mut pp = poses.to_vec();
-                            let mut pm = poses.to_vec();
-                            pp[b] = poses[b].advanced(&d);
-                            pm[b] = poses[b].advanced(&(-d));
-                            f.apply(t, &pp, twists, &mut buf_p);
-                            f.apply(t, &pm, twists, &mut buf_m);
+                            pert_poses[b] = poses[b].advanced(&d);
+                            f.apply(t, &pert_poses, twists, &mut buf_p);
+                            pert_poses[b] = poses[b].advanced(&(-d));
+                            f.apply(t, &pert_poses, twists, &mut buf_m);
+                            pert_poses[b] = poses[b];
                         } else {
-                            let mut tp = twists.to_vec();
-                            let mut tm = twists.to_vec();
-                            tp[6 * b + k] += FD_STEP;
-                            tm[6 * b + k] -= FD_STEP;
-                            f.apply(t, poses, &tp, &mut buf_p);
-                            f.apply(t, poses, &tm, &mut buf_m);
+                            pert_twists[6 * b + k] = twists[6 * b + k] + FD_STEP;
+                            f.apply(t, poses, &pert_twists, &mut buf_p);
+                            pert_twists[6 * b + k] = twists[6 * b + k] - FD_STEP;
+                            f.apply(t, poses, &pert_twists, &mut buf_m);
+                            pert_twists[6 * b + k] = twists[6 * b + k];
                         }
                         for &c in &bodies {
                             let col = (Twist::from_column_slice(&buf_p[6 * c..6 * c + 6])

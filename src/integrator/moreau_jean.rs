@@ -62,6 +62,64 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
     out
 }
 
+/// The joints' equality rows H v = b eliminated from the step (Schur complement): the
+/// velocity v_free + Z Q with Z = W⁻¹Hᵀ and S = H Z. Z is nonzero only on the bodies
+/// W couples to jointed ones, so a contact away from the joints keeps its plain response.
+struct Elimination {
+    hmat: DMatrix<f64>,
+    z: DMatrix<f64>,
+    schur: EqualitySolver,
+    /// Bodies on which H has nonzero columns, and on which Z has nonzero rows.
+    h_bodies: Vec<usize>,
+    z_bodies: Vec<usize>,
+}
+
+impl Elimination {
+    fn new(w: &IterationMatrix, hmat: DMatrix<f64>, mask: &[bool]) -> Self {
+        let z = solve_columns(w, &hmat.transpose());
+        let bodies = mask.len() / 6;
+        let h_bodies = (0..bodies)
+            .filter(|&b| hmat.columns(6 * b, 6).iter().any(|&x| x != 0.0))
+            .collect();
+        let z_bodies = (0..bodies)
+            .filter(|&b| z.rows(6 * b, 6).iter().any(|&x| x != 0.0))
+            .collect();
+        Elimination {
+            schur: EqualitySolver::new(&hmat * &z),
+            hmat,
+            z,
+            h_bodies,
+            z_bodies,
+        }
+    }
+
+    /// Turns a contact's response y = W⁻¹Gᵀ into the constrained one, y − Z S⁻¹ H y, and
+    /// returns S⁻¹ H y (what its impulse takes from the joints' ones); None when H y = 0.
+    fn constrain(&self, y: &mut Vec<(usize, Matrix6x3<f64>)>) -> Option<DMatrix<f64>> {
+        let mut hy = DMatrix::zeros(self.hmat.nrows(), 3);
+        let mut touched = false;
+        for (b, yb) in y.iter() {
+            if self.h_bodies.contains(b) {
+                hy += self.hmat.columns(6 * b, 6) * yb;
+                touched = true;
+            }
+        }
+        if !touched {
+            return None;
+        }
+        let corr = self.schur.solve_matrix(&hy);
+        for &b in &self.z_bodies {
+            let blk =
+                Matrix6x3::from_fn(|i, j| self.z.row(6 * b + i).dot(&corr.column(j).transpose()));
+            match y.iter_mut().find(|(bb, _)| *bb == b) {
+                Some((_, yb)) => *yb -= blk,
+                None => y.push((b, -blk)),
+            }
+        }
+        Some(corr)
+    }
+}
+
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
 /// warm-started from `warm` (one impulse per active contact), and the bilateral rows
 /// of the joints, `joints(q̄)` (rates b at t + h/2). The joints are imposed at the
@@ -71,10 +129,10 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
 /// pendulum: order 2.00 vs 1.00, 230× smaller error at h = 1 ms). The position drift left
 /// is O(h³) per step and the projection removes it. `mask` is `model.dof_mask()`.
 ///
-/// Without joints the Delassus matrix is assembled block by block from the sparse contact
-/// Jacobians. With joints the equality rows are eliminated exactly (Schur complement,
-/// `EqualitySolver`) and the contacts see the constrained operator
-/// W⁻¹ − W⁻¹Hᵀ(HW⁻¹Hᵀ)⁻¹HW⁻¹.
+/// The Delassus matrix is assembled block by block from the sparse contact Jacobians.
+/// With joints the equality rows are eliminated exactly (Schur complement, `Elimination`)
+/// and the contacts see the constrained operator W⁻¹ − W⁻¹Hᵀ(HW⁻¹Hᵀ)⁻¹HW⁻¹, which differs
+/// from W⁻¹ only for the contacts on bodies coupled to the joints.
 #[allow(clippy::too_many_arguments)]
 pub fn velocity_step(
     model: &Model,
@@ -171,82 +229,72 @@ pub fn velocity_step(
             rates = &b * 2.0 - &hm * v0;
             hmat = hm;
         }
-        if joints.is_none() {
-            if active.is_empty() {
-                v = v_free;
-                continue;
+        // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with H v = b
+        let elimination = joints.map(|_| Elimination::new(&w, hmat.clone(), mask));
+        let (v_free_c, q_free) = match &elimination {
+            Some(e) => {
+                let q_free = e.schur.solve(&(&rates - &e.hmat * &v_free));
+                (&v_free + &e.z * &q_free, q_free)
             }
-            let ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-                blocks.iter().map(|b| w.solve_contact(b)).collect();
-            let n = active.len();
-            let mut dmat = DMatrix::zeros(3 * n, 3 * n);
-            let mut q = DVector::zeros(3 * n);
-            for (c, bc) in blocks.iter().enumerate() {
-                let mut qc = Vector3::zeros();
+            None => (v_free, DVector::zeros(0)),
+        };
+        if active.is_empty() {
+            q_joint = q_free;
+            v = v_free_c;
+            continue;
+        }
+        // each contact's response W⁻¹Gᵀ, sparse over the bodies; with joints, constrained
+        // (y − W⁻¹Hᵀ S⁻¹ H y), keeping S⁻¹ H y for the joint impulses
+        let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
+            blocks.iter().map(|b| w.solve_contact(b)).collect();
+        let corrections: Vec<Option<DMatrix<f64>>> = match &elimination {
+            Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
+            None => Vec::new(),
+        };
+        let n = active.len();
+        let mut dmat = DMatrix::zeros(3 * n, 3 * n);
+        let mut q = DVector::zeros(3 * n);
+        for (c, bc) in blocks.iter().enumerate() {
+            let mut qc = Vector3::zeros();
+            for (b, g) in bc {
+                qc += g * v_free_c.fixed_rows::<6>(6 * b);
+            }
+            qc.x += shift[c];
+            q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
+            for (d, yd) in ys.iter().enumerate() {
+                let mut blk = Matrix3::zeros();
                 for (b, g) in bc {
-                    qc += g * v_free.fixed_rows::<6>(6 * b);
-                }
-                qc.x += shift[c];
-                q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-                for (d, yd) in ys.iter().enumerate() {
-                    let mut blk = Matrix3::zeros();
-                    for (b, g) in bc {
-                        for (b2, y) in yd {
-                            if b == b2 {
-                                blk += g * y;
-                            }
+                    for (b2, y) in yd {
+                        if b == b2 {
+                            blk += g * y;
                         }
                     }
-                    dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
                 }
+                dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
             }
-            status = solve_fc3d(
-                &Fc3d {
-                    w: &dmat,
-                    q: &q,
-                    mu: &mu,
-                },
-                &mut r,
-                &params.solver,
-            );
-            v = v_free;
-            for (c, yc) in ys.iter().enumerate() {
-                let p = r.fixed_rows::<3>(3 * c);
-                for (b, y) in yc {
-                    let mut seg = v.fixed_rows_mut::<6>(6 * b);
-                    seg += y * p;
-                }
+        }
+        status = solve_fc3d(
+            &Fc3d {
+                w: &dmat,
+                q: &q,
+                mu: &mu,
+            },
+            &mut r,
+            &params.solver,
+        );
+        v = v_free_c;
+        for (c, yc) in ys.iter().enumerate() {
+            let p = r.fixed_rows::<3>(3 * c);
+            for (b, y) in yc {
+                let mut seg = v.fixed_rows_mut::<6>(6 * b);
+                seg += y * p;
             }
-        } else {
-            // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with H v = b
-            let wiht = solve_columns(&w, &hmat.transpose());
-            let schur = EqualitySolver::new(&hmat * &wiht);
-            let q_free = schur.solve(&(&rates - &hmat * &v_free));
-            let v_free_c = &v_free + &wiht * &q_free;
-            if active.is_empty() {
-                q_joint = q_free;
-                v = v_free_c;
-                continue;
+        }
+        q_joint = q_free;
+        for (c, corr) in corrections.iter().enumerate() {
+            if let Some(corr) = corr {
+                q_joint -= corr * r.fixed_rows::<3>(3 * c);
             }
-            let gmat = contact_matrix(&blocks, ndof);
-            let y = solve_columns(&w, &gmat.transpose());
-            let y_c = &y - &wiht * schur.solve_matrix(&(&hmat * &y));
-            let dmat = &gmat * &y_c;
-            let mut q = &gmat * &v_free_c;
-            for (c, s) in shift.iter().enumerate() {
-                q[3 * c] += s;
-            }
-            status = solve_fc3d(
-                &Fc3d {
-                    w: &dmat,
-                    q: &q,
-                    mu: &mu,
-                },
-                &mut r,
-                &params.solver,
-            );
-            v = &v_free_c + &y_c * &r;
-            q_joint = schur.solve(&(&rates - &hmat * (&v_free + &y * &r)));
         }
     }
     VelocityStep {
@@ -281,18 +329,6 @@ pub fn bilateral_matrix(
         hmat,
         DVector::from_iterator(rows.len(), rows.iter().map(|r| r.rate)),
     )
-}
-
-/// Dense G (3 rows per contact × dofs) from the sparse contact blocks.
-fn contact_matrix(blocks: &[Vec<(usize, Matrix3x6<f64>)>], ndof: usize) -> DMatrix<f64> {
-    let mut g = DMatrix::zeros(3 * blocks.len(), ndof);
-    for (c, bc) in blocks.iter().enumerate() {
-        for (b, blk) in bc {
-            let mut view = g.fixed_view_mut::<3, 6>(3 * c, 6 * b);
-            view += blk;
-        }
-    }
-    g
 }
 
 /// W⁻¹ X column by column.

@@ -206,6 +206,12 @@ impl Force {
         }
     }
 
+    /// `true` when only the bodies' orientations and angular velocities enter the wrench,
+    /// so its Jacobian has no columns for the linear degrees of freedom.
+    pub fn rotational_only(&self) -> bool {
+        matches!(self, Force::Torsional(_))
+    }
+
     /// `true` when the wrench changes with the pose (so it has a stiffness).
     pub fn depends_on_pose(&self) -> bool {
         match self {

@@ -230,6 +230,7 @@ impl Model {
         out: &mut Vec<ContactPoint>,
     ) {
         out.clear();
+        out.reserve(selected.len());
         let mut rest = selected;
         while let Some((&first, tail)) = rest.split_first() {
             rest = tail;

@@ -48,24 +48,47 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             residual: 0.0,
         };
     }
-    let blocks: Vec<Matrix3<f64>> = (0..n)
-        .map(|a| p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned())
+    // each contact's block and its inverse (for the sticking test), fixed over the sweeps
+    let blocks: Vec<(Matrix3<f64>, Option<Matrix3<f64>>)> = (0..n)
+        .map(|a| {
+            let block = p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned();
+            (block, block.lu().try_inverse())
+        })
+        .collect();
+    // the contacts each one is coupled to (nonzero off-diagonal blocks): contacts on
+    // bodies W does not couple leave each other's blocks zero, and skipping them makes a
+    // sweep over a mechanism cost what its couplings cost
+    let coupled: Vec<Vec<usize>> = (0..n)
+        .map(|a| {
+            (0..n)
+                .filter(|&b| {
+                    b != a
+                        && p.w
+                            .fixed_view::<3, 3>(3 * a, 3 * b)
+                            .iter()
+                            .any(|&x| x != 0.0)
+                })
+                .collect()
+        })
         .collect();
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     for sweep in 1..=opts.max_sweeps {
-        for (a, block) in blocks.iter().enumerate() {
+        for (a, (block, inverse)) in blocks.iter().enumerate() {
             let o = 3 * a;
             let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
             // q_loc = q_a + Σ_{b≠a} W_ab r_b
-            let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]) - block * ra;
-            for (j, rj) in r.iter().enumerate() {
-                if *rj != 0.0 {
-                    qloc.x += p.w[(o, j)] * rj;
-                    qloc.y += p.w[(o + 1, j)] * rj;
-                    qloc.z += p.w[(o + 2, j)] * rj;
+            let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]);
+            for &b in &coupled[a] {
+                for j in 3 * b..3 * b + 3 {
+                    let rj = r[j];
+                    if rj != 0.0 {
+                        qloc.x += p.w[(o, j)] * rj;
+                        qloc.y += p.w[(o + 1, j)] * rj;
+                        qloc.z += p.w[(o + 2, j)] * rj;
+                    }
                 }
             }
-            let sol = solve_one_contact(block, &qloc, p.mu[a], &ra);
+            let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
             r[o] = sol.x;
             r[o + 1] = sol.y;
             r[o + 2] = sol.z;
@@ -120,10 +143,12 @@ fn last_resort(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions, sweeps: usize
 }
 
 /// Exact solution of the one-contact problem u = W r + q, K* ∋ û ⟂ r ∈ K (to round-off),
-/// starting from `r0`. Tries the closed-form separation and sticking solutions first, then
-/// Alart–Curnier Newton for sliding, then the projection method if Newton stalls.
+/// starting from `r0`, given W⁻¹ (None if W is singular). Tries the closed-form separation
+/// and sticking solutions first, then Alart–Curnier Newton for sliding, then the
+/// projection method if Newton stalls.
 pub fn solve_one_contact(
     w: &Matrix3<f64>,
+    w_inverse: Option<&Matrix3<f64>>,
     q: &Vector3<f64>,
     mu: f64,
     r0: &Vector3<f64>,
@@ -136,8 +161,8 @@ pub fn solve_one_contact(
         return Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
     }
     // sticking: u = 0 with r inside the cone
-    if let Some(lu) = w.lu().try_inverse() {
-        let r = -(lu * q);
+    if let Some(inverse) = w_inverse {
+        let r = -(inverse * q);
         if r.x > 0.0 && (r.y * r.y + r.z * r.z).sqrt() <= mu * r.x {
             return r;
         }
