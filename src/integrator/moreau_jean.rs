@@ -67,6 +67,8 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
 /// W couples to jointed ones, so a contact away from the joints keeps its plain response.
 struct Elimination {
     hmat: DMatrix<f64>,
+    /// The rows' right-hand side: 2b − H v_k for the midpoint rule.
+    rates: DVector<f64>,
     z: DMatrix<f64>,
     schur: EqualitySolver,
     /// Bodies on which H has nonzero columns, and on which Z has nonzero rows.
@@ -75,9 +77,9 @@ struct Elimination {
 }
 
 impl Elimination {
-    fn new(w: &IterationMatrix, hmat: DMatrix<f64>, mask: &[bool]) -> Self {
+    fn new(w: &IterationMatrix, hmat: DMatrix<f64>, rates: DVector<f64>) -> Self {
         let z = solve_columns(w, &hmat.transpose());
-        let bodies = mask.len() / 6;
+        let bodies = hmat.ncols() / 6;
         let h_bodies = (0..bodies)
             .filter(|&b| hmat.columns(6 * b, 6).iter().any(|&x| x != 0.0))
             .collect();
@@ -87,6 +89,7 @@ impl Elimination {
         Elimination {
             schur: EqualitySolver::new(&hmat * &z),
             hmat,
+            rates,
             z,
             h_bodies,
             z_bodies,
@@ -109,8 +112,7 @@ impl Elimination {
         }
         let corr = self.schur.solve_matrix(&hy);
         for &b in &self.z_bodies {
-            let blk =
-                Matrix6x3::from_fn(|i, j| self.z.row(6 * b + i).dot(&corr.column(j).transpose()));
+            let blk: Matrix6x3<f64> = self.z.fixed_rows::<6>(6 * b) * corr.fixed_columns::<3>(0);
             match y.iter_mut().find(|(bb, _)| *bb == b) {
                 Some((_, yb)) => *yb -= blk,
                 None => y.push((b, -blk)),
@@ -179,8 +181,8 @@ pub fn velocity_step(
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    let mut hmat = DMatrix::zeros(0, ndof);
-    let mut rates = DVector::zeros(0);
+    // the joints' rows of the last Newton iterate, eliminated
+    let mut elimination: Option<Elimination> = None;
     let mut q_joint = DVector::zeros(0);
 
     let mut v = v0.clone();
@@ -206,8 +208,8 @@ pub fn velocity_step(
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
             let mut reactions = resid.clone();
-            if joints.is_some() {
-                reactions -= hmat.tr_mul(&q_joint);
+            if let Some(e) = &elimination {
+                reactions -= e.hmat.tr_mul(&q_joint);
             }
             let res = newton_residual(&reactions, &blocks, &r, mask);
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
@@ -222,18 +224,17 @@ pub fn velocity_step(
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta, alpha);
         let v_free = &v - w.solve(&resid);
-        if let Some(rows_at) = joints {
-            // H(q_{k+½}) v_{k+1} = 2b − H(q_{k+½}) v_k
+        // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with
+        // H(q_{k+½}) v_{k+1} = 2b − H(q_{k+½}) v_k
+        elimination = joints.map(|rows_at| {
             let mid = advance_poses(poses, v0, &v, 0.5 * h, 0.5);
-            let (hm, b) = bilateral_matrix(&rows_at(&mid), mask, ndof);
-            rates = &b * 2.0 - &hm * v0;
-            hmat = hm;
-        }
-        // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with H v = b
-        let elimination = joints.map(|_| Elimination::new(&w, hmat.clone(), mask));
+            let (hmat, b) = bilateral_matrix(&rows_at(&mid), mask, ndof);
+            let rates = &b * 2.0 - &hmat * v0;
+            Elimination::new(&w, hmat, rates)
+        });
         let (v_free_c, q_free) = match &elimination {
             Some(e) => {
-                let q_free = e.schur.solve(&(&rates - &e.hmat * &v_free));
+                let q_free = e.schur.solve(&(&e.rates - &e.hmat * &v_free));
                 (&v_free + &e.z * &q_free, q_free)
             }
             None => (v_free, DVector::zeros(0)),
