@@ -327,10 +327,15 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     let wall = start.elapsed();
     let st = sim.stats;
     println!("scene            {} ({})", scene.name, scene_path.display());
+    let settle_h = sim.model.settle.as_ref().and_then(|s| s.step_ratio);
     println!(
-        "scheme           {} h = {:e} s, θ = {}",
+        "scheme           {} h = {:e} s{}, θ = {}",
         sim.params.scheme.name(),
         sim.params.h,
+        settle_h.map_or(String::new(), |r| format!(
+            " (settling: {:e} s)",
+            r * sim.params.h
+        )),
         sim.params.theta
     );
     println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);

@@ -36,7 +36,7 @@ impl Measure {
                 .map(|&i| sim.contact_points()[i].gap())
                 .fold(f64::INFINITY, f64::min),
             Measure::ContactForce(ids) => {
-                ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.params.h
+                ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.h()
             }
             Measure::Distance {
                 from,
@@ -192,7 +192,7 @@ impl<'a> ProbeRecorder<'a> {
     /// Updates every probe with the state after a step (and once with the initial state).
     pub fn observe(&mut self, sim: &Simulation) {
         let t = sim.state.t;
-        let half_step = 0.5 * sim.params.h;
+        let half_step = 0.5 * sim.h();
         // events first, so that a window opened by an event includes the event's step
         for (p, g) in self.probes.iter().zip(self.progress.iter_mut()) {
             let ProbeKind::Event { event, occurrence } = &p.kind else {
@@ -207,7 +207,7 @@ impl<'a> ProbeRecorder<'a> {
                     let closed = ids.iter().any(|&i| pressed(i));
                     let hit = match event {
                         Event::Closes(_) => (closed && !g.closed).then(|| {
-                            let h = sim.params.h;
+                            let h = sim.h();
                             ids.iter()
                                 .zip(&g.approach)
                                 .filter(|(&i, _)| pressed(i))
@@ -222,7 +222,7 @@ impl<'a> ProbeRecorder<'a> {
                         // with θ = 1/2 a driven body's end velocities alternate about its
                         // prescribed speed (0, 2v, 0, …) while its position moves at v
                         let v = sim.state.v.as_slice();
-                        let h = sim.params.h;
+                        let h = sim.h();
                         let before = std::mem::take(&mut g.approach);
                         g.approach = ids
                             .iter()

@@ -74,6 +74,12 @@ fn settle_names_an_unknown_contact_or_a_negative_damping() {
         "settle.until",
         7,
     );
+    expect(
+        "contacts:",
+        "settle: { until: 1 ms, h: 0 s }\ncontacts:",
+        "settle.h",
+        7,
+    );
 }
 
 #[test]

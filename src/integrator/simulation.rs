@@ -84,7 +84,11 @@ pub struct Simulation {
     joint_impulses: Vec<f64>,
     /// Candidates in the velocity problem of the last step.
     active: Vec<usize>,
+    /// Size of the step being taken, or last taken: `params.h`, or the settle's step.
+    h: f64,
+    /// Time and step count when the step size last changed: t = t0 + (steps − n0) h.
     t0: f64,
+    n0: u64,
     pub stats: RunStats,
 }
 
@@ -122,7 +126,9 @@ impl Simulation {
             active: Vec::new(),
             points: Vec::new(),
             candidates,
+            h: params.h,
             t0: state.t,
+            n0: 0,
             model,
             params,
             state,
@@ -193,8 +199,35 @@ impl Simulation {
         self.model.energy(&self.state)
     }
 
+    /// Size of the step being taken, or of the last one taken.
+    pub fn h(&self) -> f64 {
+        self.h
+    }
+
+    /// The step that starts now, and the time it ends at when that is the settle's end: the
+    /// settle's step while settling, its last step shortened or stretched (by at most 1e-9)
+    /// to end at `until`; else h.
+    fn next_step(&self) -> (f64, Option<f64>) {
+        let settle = self.model.settling(self.state.t);
+        match settle.and_then(|s| s.step_ratio.map(|r| (s.until, r * self.params.h))) {
+            Some((until, h)) if until - self.state.t <= h * (1.0 + 1e-9) => {
+                (until - self.state.t, Some(until))
+            }
+            Some((_, h)) => (h, None),
+            None => (self.params.h, None),
+        }
+    }
+
+    /// The integration parameters of the current step (h may be the settle's).
+    fn step_params(&self) -> IntegrationParameters {
+        IntegrationParameters {
+            h: self.h,
+            ..self.params.clone()
+        }
+    }
+
     fn velocity(&self, active: &[usize]) -> VelocityStep {
-        let t_mid = self.state.t + 0.5 * self.params.h;
+        let t_mid = self.state.t + 0.5 * self.h;
         let joints = &self.model.joints;
         let rows_at = |poses: &[Pose]| {
             let mut rows = Vec::new();
@@ -235,7 +268,7 @@ impl Simulation {
         velocity_step(
             &self.model,
             &self.mask,
-            &self.params,
+            &self.step_params(),
             self.state.t,
             &self.state.poses,
             &self.state.v,
@@ -269,7 +302,7 @@ impl Simulation {
             model,
             &self.mask,
             &self.minv,
-            self.state.t + self.params.h,
+            self.state.t + self.h,
             poses,
             &points,
             mode,
@@ -278,9 +311,15 @@ impl Simulation {
         )
     }
 
-    /// Advances one step of size h.
+    /// Advances one step of size h (the settle's step while settling).
     pub fn step(&mut self) -> Result<StepReport, SimError> {
-        let p = self.params.clone();
+        let (h, ends_at) = self.next_step();
+        if h != self.h {
+            self.h = h;
+            self.t0 = self.state.t;
+            self.n0 = self.stats.steps;
+        }
+        let p = self.step_params();
         for j in &self.model.clearance_joints {
             j.check(&self.state.poses)
                 .map_err(|message| SimError::Geometry {
@@ -338,7 +377,7 @@ impl Simulation {
         self.active = active;
         self.stats.steps += 1;
         self.state = State {
-            t: self.t0 + self.stats.steps as f64 * p.h,
+            t: ends_at.unwrap_or(self.t0 + (self.stats.steps - self.n0) as f64 * p.h),
             poses,
             v: vs.v,
         };
@@ -369,7 +408,7 @@ impl Simulation {
         &self,
         report: &mut StepReport,
     ) -> (Vec<usize>, VelocityStep, Vec<Pose>, Vec<ContactPoint>) {
-        let p = &self.params;
+        let p = &self.step_params();
         let mut active: Vec<usize> = self
             .active
             .iter()
@@ -453,14 +492,18 @@ impl Simulation {
         last.expect("at least one pass")
     }
 
+    /// Whether a run to `t_end` is over: `t_end` is nearer than half the next step.
+    pub fn reached(&self, t_end: f64) -> bool {
+        self.state.t >= t_end - 0.5 * self.next_step().0
+    }
+
     /// Steps until `t_end` (to the nearest step), calling `observe` after every step.
     pub fn run_until(
         &mut self,
         t_end: f64,
         mut observe: impl FnMut(&Simulation, &StepReport),
     ) -> Result<(), SimError> {
-        let n = ((t_end - self.state.t) / self.params.h).round().max(0.0) as u64;
-        for _ in 0..n {
+        while !self.reached(t_end) {
             let r = self.step()?;
             observe(self, &r);
         }

@@ -49,6 +49,11 @@ pub struct Settle {
     /// The contact pairs and clearance joints that keep their friction during the phase
     /// (by name); `None`: all of them.
     pub friction: Option<Vec<String>>,
+    /// The settle's step over the integrator's h (`None`: the same step). A ratio, so that
+    /// a fidelity that changes h (a study's `fidelity`, the `converge` ladder) refines the
+    /// settle with it. A damped approach to rest needs a coarser step than the dynamics
+    /// after it.
+    pub step_ratio: Option<f64>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,

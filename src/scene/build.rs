@@ -1002,6 +1002,8 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
         }
     }
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
+    let mut params = IntegrationParameters::default();
+    apply_integrator(&spec.integrator, &mut params, "integrator")?;
     if let Some(s) = &spec.settle {
         model.settle = Some(Settle {
             until: positive(&s.value.until, Dim::TIME, "settle.until")?,
@@ -1011,6 +1013,10 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
             friction: match &s.value.friction {
                 None => None,
                 Some(names) => Some(settle_friction(&model, names)?),
+            },
+            step_ratio: match &s.value.h {
+                None => None,
+                Some(h) => Some(positive(h, Dim::TIME, "settle.h")? / params.h),
             },
         });
     }
@@ -1022,11 +1028,7 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
         probes: super::probes::probes(&model, &spec.probes)?,
-        params: {
-            let mut p = IntegrationParameters::default();
-            apply_integrator(&spec.integrator, &mut p, "integrator")?;
-            p
-        },
+        params,
         model,
         duration,
         record_every,

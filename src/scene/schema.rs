@@ -129,6 +129,8 @@ pub struct SettleSpec {
     /// α, a rate (1/s), default 0.
     pub damping: Option<Q>,
     pub friction: Option<Spanned<Vec<Name>>>,
+    /// The step while settling (default: the integrator's h).
+    pub h: Option<Q>,
 }
 
 #[derive(Debug, Default, Deserialize)]

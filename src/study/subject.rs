@@ -139,11 +139,8 @@ impl Subject {
                 };
                 let mut recorder = ProbeRecorder::new(&scene.probes);
                 recorder.observe(&sim);
-                let steps = ((scene.duration - sim.state.t) / sim.params.h)
-                    .round()
-                    .max(0.0) as u64;
                 let mut failure = None;
-                for _ in 0..steps {
+                while !sim.reached(scene.duration) {
                     if let Err(e) = sim.step() {
                         failure = Some(e.to_string());
                         break;
