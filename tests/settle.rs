@@ -7,22 +7,29 @@ use mc_study::scene::Scene;
 
 const G: f64 = 9.81;
 
-/// A free box, no gravity, no contact, moving and spinning, damped at α = 10/s until 0.5 s.
-#[test]
-fn settle_damping_decays_the_velocity_as_exp_minus_alpha_t_then_stops_acting() {
-    let yaml = "
+/// A free box, no gravity, no contact, moving and spinning, h = 1 ms, under `settle`.
+fn free_box(settle: &str) -> Scene {
+    let yaml = format!(
+        "
 duration: 1 s
 gravity: [0, 0, 0]
-integrator: { h: 1 ms }
-settle: { until: 0.5 s, damping: 10 Hz }
+integrator: {{ h: 1 ms }}
+{settle}
 bodies:
   - name: box
     mass: 2 kg
-    shape: { box: { size: [0.2, 0.1, 0.05] } }
+    shape: {{ box: {{ size: [0.2, 0.1, 0.05] }} }}
     velocity: [1, -2, 0.5]
     angular_velocity: [0, 0, 3]
-";
-    let scene = Scene::from_yaml(yaml, "settle").unwrap_or_else(|e| panic!("{e}"));
+"
+    );
+    Scene::from_yaml(&yaml, "settle").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The free box damped at α = 10/s until 0.5 s.
+#[test]
+fn settle_damping_decays_the_velocity_as_exp_minus_alpha_t_then_stops_acting() {
+    let scene = free_box("settle: { until: 0.5 s, damping: 10 Hz }");
     let mut sim = common::simulation(scene);
     let v0 = sim.state.v.clone();
     sim.run_until(0.5, |_, _| {}).unwrap();
@@ -116,20 +123,9 @@ fn a_frictionless_settle_lets_a_stuck_block_slide_until_friction_returns() {
 /// 10 ms and one of 3 ms here, against 503 of 1 ms (a relative difference of 4e-3).
 #[test]
 fn the_settle_takes_its_own_step_and_ends_at_until() {
-    let yaml = "
-duration: 1 s
-gravity: [0, 0, 0]
-integrator: { h: 1 ms }
-settle: { until: 0.503 s, damping: 10 Hz, h: 10 ms }
-bodies:
-  - name: box
-    mass: 2 kg
-    shape: { box: { size: [0.2, 0.1, 0.05] } }
-    velocity: [1, -2, 0.5]
-";
     let factor = |s: f64| (1.0 - 5.0 * s) / (1.0 + 5.0 * s);
     for (h, settle_steps, last) in [(1e-3, 50, 3e-3), (0.5e-3, 100, 3e-3)] {
-        let mut scene = Scene::from_yaml(yaml, "settle").unwrap_or_else(|e| panic!("{e}"));
+        let mut scene = free_box("settle: { until: 0.503 s, damping: 10 Hz, h: 10 ms }");
         scene.params.h = h; // as a study's `fidelity: { h }` does
         let mut sim = common::simulation(scene);
         let v0 = sim.state.v[0];
