@@ -358,6 +358,9 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         st.solver_failures, st.max_solver_residual
     );
     println!("newton failures  {} steps", st.newton_failures);
+    if sim.params.locate_impacts {
+        println!("impacts located  {} steps split", st.impact_splits);
+    }
     let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
     println!(
         "work per step    {:.2} Newton iterations, {:.1} solver sweeps, {:.2} activation passes, {:.1} active contacts (means)",

@@ -126,10 +126,10 @@ fn latched_state_does_not_depend_on_the_step() {
 
 /// With frictionless joints (the ideal joint has no friction), every output tends to that
 /// of the ideal-joint mechanism as the clearances close: at c = 1e-6 mm (1 nm) all ten
-/// outputs agree to 1e-3 relative (the trip and opening times to 1e-4, the tripping force
-/// to 8e-4). The geometric FCs converge at first order (asserted: at least 50-fold per
-/// 100-fold in c; 114-fold and 95-fold measured), FC-1 noisily (asserted 2-fold at 100 nm
-/// and 100-fold over both decades; 5.2-fold and 1500-fold measured): the small journals
+/// outputs agree to 1e-3 relative (the trip and opening times to 6e-5, the tripping force
+/// to 5e-4). The geometric FCs converge at first order (asserted: at least 50-fold per
+/// 100-fold in c; 100-fold twice measured), FC-1 noisily (asserted 2-fold at 100 nm and
+/// 100-fold over both decades; 6.6-fold and 210-fold measured): the small journals
 /// chatter without friction, and the main contact's force with them. At 1 nm one step
 /// carries a journal across its clearance: the ring guards keep it in its bore. At the
 /// nominal 0.07 mm FC-1 and FC-4 differ by percents: the comparison resolves the clearance

@@ -158,6 +158,16 @@ fn wrong_unit_dimension_and_bad_theta() {
 }
 
 #[test]
+fn locate_impacts_must_be_a_boolean() {
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nintegrator:\n  locate_impacts: often\n",
+        "invalid boolean",
+        3,
+    );
+}
+
+#[test]
 fn yaml_syntax_error_names_the_line() {
     let e = error_of("    mass: 1 kg", "    mass: [1 kg");
     assert!(e.starts_with("scene.yaml:"), "{e}");

@@ -170,7 +170,7 @@ pub fn velocity_step(
         .iter()
         .map(|c| {
             let u0 = c.local_velocity(v0.as_slice()).x;
-            if c.gap_law {
+            if c.gap_law && h > 0.0 {
                 ((c.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
             } else {
                 c.e * u0

@@ -23,6 +23,49 @@ pub struct StepReport {
     pub projection: ProjectionOutcome,
 }
 
+impl StepReport {
+    /// Folds in the report of another part of the same step: the worst of each flag and
+    /// residual, the work added.
+    fn absorb(&mut self, part: &StepReport) {
+        self.newton_converged &= part.newton_converged;
+        self.newton_iterations += part.newton_iterations;
+        self.solver.converged &= part.solver.converged;
+        self.solver.residual = self.solver.residual.max(part.solver.residual);
+        self.solver.iterations += part.solver.iterations;
+        self.projection.converged &= part.projection.converged;
+        self.projection.iterations = self.projection.iterations.max(part.projection.iterations);
+        self.active_set_passes = self.active_set_passes.max(part.active_set_passes);
+    }
+}
+
+/// The report of an impact (a velocity step of length 0, nothing projected).
+fn impact_report(vs: &VelocityStep) -> StepReport {
+    StepReport {
+        active_contacts: vs.impulses.len(),
+        newton_iterations: vs.newton_iterations,
+        newton_converged: vs.newton_converged,
+        solver: vs.solver,
+        active_set_passes: 1,
+        projection: ProjectionOutcome {
+            converged: true,
+            ..ProjectionOutcome::default()
+        },
+    }
+}
+
+/// A step computed from the current state, before it is taken.
+struct Outcome {
+    active: Vec<usize>,
+    vs: VelocityStep,
+    poses: Vec<Pose>,
+    /// The contact points at `poses`, when the scheme evaluated them.
+    points: Option<Vec<ContactPoint>>,
+    /// Contacts the activation loop added (closing within the step), each with its gap at
+    /// the end of the pass before it was added.
+    closing: Vec<(usize, f64)>,
+    report: StepReport,
+}
+
 /// Diagnostics accumulated over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RunStats {
@@ -44,6 +87,8 @@ pub struct RunStats {
     pub max_active_contacts: usize,
     pub max_active_set_passes: usize,
     pub max_projection_iterations: usize,
+    /// Steps split at an impact (`IntegrationParameters::locate_impacts`).
+    pub impact_splits: u64,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -311,7 +356,9 @@ impl Simulation {
         )
     }
 
-    /// Advances one step of size h (the settle's step while settling).
+    /// Advances one step of size h (the settle's step while settling). With
+    /// `locate_impacts`, a step in which a contact closes is redone at the closing time
+    /// (`split_at_impact`).
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let (h, ends_at) = self.next_step();
         if h != self.h {
@@ -319,6 +366,145 @@ impl Simulation {
             self.t0 = self.state.t;
             self.n0 = self.stats.steps;
         }
+        let t_end = ends_at.unwrap_or(self.t0 + (self.stats.steps + 1 - self.n0) as f64 * h);
+        let trial = self.compute()?;
+        let impact = match self.params.locate_impacts {
+            true => self.first_impact(&trial),
+            false => None,
+        };
+        let report = match impact {
+            None => self.commit(trial, t_end),
+            Some((i, s)) => self.split_at_impact(i, s, &trial.active, t_end)?,
+        };
+        self.stats.steps += 1;
+        let s = &mut self.stats;
+        s.solver_failures += u64::from(!report.solver.converged);
+        s.newton_failures += u64::from(!report.newton_converged);
+        let projected = self.params.scheme != Scheme::MoreauJean;
+        s.projection_failures += u64::from(projected && !report.projection.converged);
+        s.max_solver_residual = s.max_solver_residual.max(report.solver.residual);
+        s.max_active_contacts = s.max_active_contacts.max(report.active_contacts);
+        s.max_active_set_passes = s.max_active_set_passes.max(report.active_set_passes);
+        s.max_projection_iterations = s
+            .max_projection_iterations
+            .max(report.projection.iterations);
+        Ok(report)
+    }
+
+    /// The earliest contact that closes within the step `trial` computed, and the fraction
+    /// of the step at which it closes: its gap interpolated linearly between the step's
+    /// start and the end of the pass that activated it. `None` without one.
+    fn first_impact(&self, trial: &Outcome) -> Option<(usize, f64)> {
+        trial
+            .closing
+            .iter()
+            .filter_map(|&(i, end_gap)| {
+                let g0 = self.points[i].gap();
+                (g0 > 0.0 && end_gap < 0.0).then(|| (i, g0 / (g0 - end_gap)))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The step redone in three parts: up to the impact of contact `i` at fraction `s` of
+    /// the step, the impact itself (a step of length 0: the frictional impact law alone, on
+    /// the contacts that the whole step closed and those touching then), and the rest of
+    /// the step from the post-impact velocity. The θ-rule would otherwise move the bodies over the whole step with the
+    /// mean of the pre- and post-impact velocities, which misplaces them by up to h/2 times
+    /// the velocity jump, whatever h resolves elsewhere. The step's impulses are the sums
+    /// of its parts', so that impulse / h stays the step's mean force.
+    fn split_at_impact(
+        &mut self,
+        i: usize,
+        s: f64,
+        in_step: &[usize],
+        t_end: f64,
+    ) -> Result<StepReport, SimError> {
+        let (h, t_start) = (self.h, self.state.t);
+        let mut impulses = vec![Vector3::zeros(); self.points.len()];
+        let add = |sim: &Simulation, sum: &mut Vec<Vector3<f64>>| {
+            sum.iter_mut().zip(&sim.impulses).for_each(|(a, b)| *a += b);
+        };
+        // The part before ends a hair (1e-6 of it) short of the contact, which it must not
+        // close itself; where the gap's curvature over the step put the estimate past the
+        // contact, the secant on the part just computed corrects it. A part shorter than
+        // 1e-3 h misplaces the bodies by at most 1e-3 h times the jump.
+        let g0 = self.points[i].gap();
+        let mut s = s * (1.0 - 1e-6);
+        let mut tries = 0;
+        let before = loop {
+            s = s.clamp(1e-3, 1.0 - 1e-3);
+            self.h = s * h;
+            let part = self.compute()?;
+            tries += 1;
+            match part.closing.iter().find(|c| c.0 == i) {
+                Some(&(_, end_gap)) if s > 1e-3 && tries < 4 => {
+                    s *= g0 / (g0 - end_gap) * (1.0 - 1e-6)
+                }
+                _ => break part,
+            }
+        };
+        let first = self.commit(before, t_start + s * h);
+        add(self, &mut impulses);
+        let mut joint_impulses = self.joint_impulses.clone();
+        // The impact, at the poses it happens at, on the contacts of the whole step as the
+        // unsplit step had them (`in_step`, with the guards that stop a journal crossing
+        // its clearance), those of the part before, and every one that touches then (a gap
+        // no wider than the impacting contact's, plus the activation margin): the contacts
+        // the step closes take its impact together, as Moreau's law has them, not one after
+        // the other. Contacts that close together (the two rings of a journal swinging in
+        // its plane, a box's corners) and a journal that the blow drives across a tiny
+        // clearance (which an ideal joint takes in the same impulse) need it: taken one
+        // after the other, with e = 0, they lose other momenta.
+        self.h = 0.0;
+        let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
+        let mut member = vec![false; self.points.len()];
+        in_step.iter().for_each(|&k| member[k] = true);
+        self.active
+            .iter()
+            .for_each(|&k| member[k] |= !self.is_guard(k));
+        let active: Vec<usize> = (0..self.points.len())
+            .filter(|&k| {
+                member[k] || k == i || (!self.is_guard(k) && self.points[k].gap() <= margin)
+            })
+            .collect();
+        let vs = self.velocity(&active);
+        if vs.v.iter().any(|x| !x.is_finite()) {
+            return Err(SimError::NonFinite {
+                t: self.state.t,
+                step: self.stats.steps,
+            });
+        }
+        self.impulses.iter_mut().for_each(|x| *x = Vector3::zeros());
+        for (&k, imp) in active.iter().zip(&vs.impulses) {
+            self.impulses[k] = *imp;
+        }
+        add(self, &mut impulses);
+        let impact = impact_report(&vs);
+        self.active = active;
+        self.state.v = vs.v;
+        self.h = (1.0 - s) * h;
+        let after = self.compute()?;
+        let mut report = self.commit(after, t_end);
+        add(self, &mut impulses);
+        self.impulses = impulses;
+        if joint_impulses.len() == self.joint_impulses.len() {
+            let add_rows = |a: &mut Vec<f64>, b: &[f64]| {
+                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+            };
+            add_rows(&mut joint_impulses, &vs.joint_impulses);
+            add_rows(&mut joint_impulses, &self.joint_impulses);
+            self.joint_impulses = joint_impulses;
+        }
+        self.h = h;
+        for part in [&first, &impact] {
+            report.absorb(part);
+        }
+        self.stats.impact_splits += 1;
+        Ok(report)
+    }
+
+    /// The step of size `self.h` from the current state, not yet taken.
+    fn compute(&self) -> Result<Outcome, SimError> {
         let p = self.step_params();
         for j in &self.model.clearance_joints {
             j.check(&self.state.poses)
@@ -332,7 +518,7 @@ impl Simulation {
             c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
         };
         let mut report = StepReport::default();
-        let (active, vs, poses, points) = match p.scheme {
+        let outcome = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
                 let active: Vec<usize> = (0..self.points.len())
                     .filter(|&i| forecast(&self.points[i]))
@@ -348,15 +534,22 @@ impl Simulation {
                         ContactRows::Inequality,
                     );
                 }
-                (active, vs, poses, None)
+                Outcome {
+                    active,
+                    vs,
+                    poses,
+                    points: None,
+                    closing: Vec::new(),
+                    report,
+                }
             }
-            Scheme::CombinedProjection => {
-                let (active, vs, poses, points) = self.combined(&mut report);
-                (active, vs, poses, Some(points))
-            }
+            Scheme::CombinedProjection => self.combined(report),
         };
-        if vs.v.iter().any(|x| !x.is_finite())
-            || poses.iter().any(|q| !q.x.iter().all(|x| x.is_finite()))
+        if outcome.vs.v.iter().any(|x| !x.is_finite())
+            || outcome
+                .poses
+                .iter()
+                .any(|q| !q.x.iter().all(|x| x.is_finite()))
         {
             return Err(SimError::NonFinite {
                 t: self.state.t,
@@ -364,51 +557,47 @@ impl Simulation {
             });
         }
         for j in &self.model.clearance_joints {
-            j.check(&poses).map_err(|message| SimError::Geometry {
-                t: self.state.t + p.h,
-                message,
-            })?;
+            j.check(&outcome.poses)
+                .map_err(|message| SimError::Geometry {
+                    t: self.state.t + p.h,
+                    message,
+                })?;
         }
+        Ok(outcome)
+    }
+
+    /// Takes the computed step: the state at time `t`, its impulses and contact points.
+    fn commit(&mut self, outcome: Outcome, t: f64) -> StepReport {
+        let Outcome {
+            active,
+            vs,
+            poses,
+            points,
+            mut report,
+            ..
+        } = outcome;
         self.impulses.iter_mut().for_each(|x| *x = Vector3::zeros());
         for (&i, imp) in active.iter().zip(&vs.impulses) {
             self.impulses[i] = *imp;
         }
-        self.joint_impulses = vs.joint_impulses.clone();
+        self.joint_impulses = vs.joint_impulses;
         self.active = active;
-        self.stats.steps += 1;
-        self.state = State {
-            t: ends_at.unwrap_or(self.t0 + (self.stats.steps - self.n0) as f64 * p.h),
-            poses,
-            v: vs.v,
-        };
+        self.state = State { t, poses, v: vs.v };
         self.update_geometry(points);
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;
         report.solver = vs.solver;
-        let s = &mut self.stats;
-        s.solver_failures += u64::from(!report.solver.converged);
-        s.newton_failures += u64::from(!report.newton_converged);
-        let projected = p.scheme != Scheme::MoreauJean;
-        s.projection_failures += u64::from(projected && !report.projection.converged);
-        s.max_solver_residual = s.max_solver_residual.max(report.solver.residual);
-        s.max_active_contacts = s.max_active_contacts.max(report.active_contacts);
-        s.max_active_set_passes = s.max_active_set_passes.max(report.active_set_passes);
-        s.max_projection_iterations = s
-            .max_projection_iterations
-            .max(report.projection.iterations);
-        Ok(report)
+        report
     }
 
     /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
     /// previous step's active set (kept while pressed or closed; guards are not kept, they
-    /// are chosen afresh each step). Returns the active set, the velocity step, the
-    /// end-of-step poses and the contact points evaluated at those poses.
-    fn combined(
-        &self,
-        report: &mut StepReport,
-    ) -> (Vec<usize>, VelocityStep, Vec<Pose>, Vec<ContactPoint>) {
+    /// are chosen afresh each step): the active set, the velocity step, the end-of-step
+    /// poses, the contact points evaluated there, and the contacts that closed.
+    fn combined(&self, mut report: StepReport) -> Outcome {
         let p = &self.step_params();
+        let mut closing = Vec::new();
         let mut active: Vec<usize> = self
             .active
             .iter()
@@ -481,15 +670,31 @@ impl Simulation {
                 .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();
             if new.is_empty() {
-                return (active, vs, poses, after);
+                return Outcome {
+                    active,
+                    vs,
+                    poses,
+                    points: Some(after),
+                    closing,
+                    report,
+                };
             }
+            closing.extend(new.iter().map(|&i| (i, after[i].gap())));
             last = Some((active.clone(), vs, poses, after));
             active.extend(new);
             active.sort_unstable();
         }
         // the active set did not settle within the allowed passes: keep the last pass, flag it
         report.projection.converged = false;
-        last.expect("at least one pass")
+        let (active, vs, poses, after) = last.expect("at least one pass");
+        Outcome {
+            active,
+            vs,
+            poses,
+            points: Some(after),
+            closing,
+            report,
+        }
     }
 
     /// Whether a run to `t_end` is over: `t_end` is nearer than half the next step.

@@ -869,6 +869,9 @@ pub fn apply_integrator(
             p.solver.max_sweeps = count(m, &format!("{prefix}.solver.max_iterations"))?;
         }
     }
+    if let Some(l) = spec.locate_impacts {
+        p.locate_impacts = l;
+    }
     if let Some(s) = &spec.projection {
         if let Some(t) = &s.tolerance {
             p.projection_tolerance =

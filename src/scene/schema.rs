@@ -110,6 +110,8 @@ pub struct IntegratorSpec {
     pub solver: Option<ToleranceSpec>,
     pub newton: Option<ToleranceSpec>,
     pub projection: Option<ToleranceSpec>,
+    /// Split a step at the first contact that closes in it (default false).
+    pub locate_impacts: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
