@@ -17,9 +17,18 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     let base = Fidelity::of(&scene.params);
     assert_eq!(base.h, 1e-4);
     let mut ladder = Ladder::around(&scene.params, 2);
-    // the full ladder also varies the tolerances, θ, the scheme, and holds the presets
+    // the full ladder also varies the tolerances, θ, the impacts' location, the scheme, and
+    // holds the presets
     let labels: Vec<String> = ladder.fidelities.iter().map(|f| f.label()).collect();
-    assert_eq!(labels.len(), 13, "{labels:#?}");
+    assert_eq!(labels.len(), 14, "{labels:#?}");
+    assert_eq!(
+        labels
+            .iter()
+            .filter(|l| l.ends_with(" impacts located"))
+            .count(),
+        1,
+        "{labels:#?}"
+    );
     assert!(
         labels.iter().any(|l| l.starts_with("fast: h=4e-4")),
         "{labels:#?}"

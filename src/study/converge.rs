@@ -25,6 +25,8 @@ pub struct Fidelity {
     pub theta: f64,
     pub solver_tolerance: f64,
     pub projection_tolerance: f64,
+    /// Impacts located within their steps (`IntegrationParameters::locate_impacts`).
+    pub locate_impacts: bool,
     /// The preset this rung is, if any (`fast`, `balanced`, `accurate`).
     pub preset: Option<Preset>,
 }
@@ -37,6 +39,7 @@ impl Fidelity {
             theta: p.theta,
             solver_tolerance: p.solver.tolerance,
             projection_tolerance: p.projection_tolerance,
+            locate_impacts: p.locate_impacts,
             preset: None,
         }
     }
@@ -57,14 +60,20 @@ impl Fidelity {
         p.theta = self.theta;
         p.solver.tolerance = self.solver_tolerance;
         p.projection_tolerance = self.projection_tolerance;
+        p.locate_impacts = self.locate_impacts;
     }
 
     pub fn label(&self) -> String {
         let preset = self
             .preset
             .map_or(String::new(), |p| format!("{}: ", p.name()));
+        let located = if self.locate_impacts {
+            " impacts located"
+        } else {
+            ""
+        };
         format!(
-            "{preset}h={:e} {} θ={} tol={:e} proj={:e}",
+            "{preset}h={:e} {} θ={} tol={:e} proj={:e}{located}",
             self.h,
             self.scheme.name(),
             self.theta,
@@ -78,12 +87,13 @@ impl Fidelity {
         match self.preset {
             Some(p) => format!("fidelity: {{ preset: {} }}\n", p.name()),
             None => format!(
-                "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n",
+                "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n  locate_impacts: {}\n",
                 exp_form(self.h),
                 self.scheme.name(),
                 self.theta,
                 exp_form(self.solver_tolerance),
-                exp_form(self.projection_tolerance)
+                exp_form(self.projection_tolerance),
+                self.locate_impacts
             ),
         }
     }
@@ -101,7 +111,8 @@ pub struct Ladder {
 impl Ladder {
     /// The default ladder around the scene's settings `p` (h₀, scheme, θ₀, tolerance τ₀,
     /// projection tolerance π₀): h₀ × {10, 5, 2, 1, ½}; τ₀ × 100 and τ₀ / 100; π₀ × 100;
-    /// θ = 1 if θ₀ ≠ 1; the other schemes; the `fast` and `accurate` presets. The reference
+    /// θ = 1 if θ₀ ≠ 1; impacts located or not, the other way from the scene; the other
+    /// schemes; the `fast` and `accurate` presets. The reference
     /// is h₀ / 10 at min(τ₀ / 100, 1e-8).
     pub fn around(p: &IntegrationParameters, samples: u64) -> Ladder {
         let base = Fidelity::of(p);
@@ -128,6 +139,10 @@ impl Ladder {
                 ..base.clone()
             });
         }
+        fidelities.push(Fidelity {
+            locate_impacts: !base.locate_impacts,
+            ..base.clone()
+        });
         for scheme in [
             Scheme::MoreauJean,
             Scheme::CombinedProjection,
@@ -311,7 +326,7 @@ impl Convergence {
     /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "h,scheme,theta,solver_tolerance,projection_tolerance,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+            "h,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
         );
         let reference = self.reference();
         for (f, fid) in self.fidelities.iter().enumerate() {
@@ -320,12 +335,13 @@ impl Convergence {
                     let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
                     let _ = writeln!(
                         s,
-                        "{:e},{},{},{:e},{:e},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        "{:e},{},{},{:e},{:e},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
                         fid.h,
                         fid.scheme.name(),
                         fid.theta,
                         fid.solver_tolerance,
                         fid.projection_tolerance,
+                        fid.locate_impacts,
                         fid.preset.map_or("", |p| p.name()),
                         self.sample_names[j],
                         name,
