@@ -77,8 +77,8 @@ enum Command {
     /// Measures the accuracy–cost trade of the study's fidelity: the nominal sample and
     /// `--samples` design samples run over a ladder (h₀ × 10, 5, 2, 1, ½; solver tolerance
     /// × 100 and ÷ 100; projection tolerance × 100; θ = 1; impacts located or not, the
-    /// other way from the scene; the other schemes; the `fast` and `accurate` presets)
-    /// against a reference at h₀/10. Errors are in units of each
+    /// other way from the scene (combined projection only); the other schemes; the `fast`
+    /// and `accurate` presets) against a reference at h₀/10. Errors are in units of each
     /// output's Monte-Carlo σ when a result directory with summary.json is found
     /// (`--results`, default the study's output directory), else relative. Prints the
     /// table, writes OUT/converge.csv and the work–precision plot OUT/work-precision.svg

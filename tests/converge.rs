@@ -17,17 +17,27 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     let base = Fidelity::of(&scene.params);
     assert_eq!(base.h, 1e-4);
     let mut ladder = Ladder::around(&scene.params, 2);
-    // the full ladder also varies the tolerances, θ, the impacts' location, the scheme, and
-    // holds the presets
+    // the full ladder also varies the tolerances, θ, the scheme, and holds the presets
     let labels: Vec<String> = ladder.fidelities.iter().map(|f| f.label()).collect();
-    assert_eq!(labels.len(), 14, "{labels:#?}");
-    assert_eq!(
-        labels
-            .iter()
-            .filter(|l| l.ends_with(" impacts located"))
-            .count(),
-        1,
-        "{labels:#?}"
+    assert_eq!(labels.len(), 13, "{labels:#?}");
+    // around the combined scheme it also locates the impacts (the ball's moreau-jean
+    // scheme has none to locate)
+    let mut combined = scene.params.clone();
+    combined.scheme = mc_study::integrator::Scheme::CombinedProjection;
+    let around_combined: Vec<String> = Ladder::around(&combined, 2)
+        .fidelities
+        .iter()
+        .map(|f| f.label())
+        .collect();
+    assert_eq!(around_combined.len(), 14, "{around_combined:#?}");
+    let located: Vec<&String> = around_combined
+        .iter()
+        .filter(|l| l.ends_with(" impacts located"))
+        .collect();
+    assert_eq!(located.len(), 1, "{around_combined:#?}");
+    assert!(
+        located[0].starts_with("h=1e-4 combined-projection"),
+        "{located:?}"
     );
     assert!(
         labels.iter().any(|l| l.starts_with("fast: h=4e-4")),

@@ -111,8 +111,8 @@ pub struct Ladder {
 impl Ladder {
     /// The default ladder around the scene's settings `p` (h₀, scheme, θ₀, tolerance τ₀,
     /// projection tolerance π₀): h₀ × {10, 5, 2, 1, ½}; τ₀ × 100 and τ₀ / 100; π₀ × 100;
-    /// θ = 1 if θ₀ ≠ 1; impacts located or not, the other way from the scene; the other
-    /// schemes; the `fast` and `accurate` presets. The reference
+    /// θ = 1 if θ₀ ≠ 1; impacts located or not, the other way from the scene (combined
+    /// projection only); the other schemes; the `fast` and `accurate` presets. The reference
     /// is h₀ / 10 at min(τ₀ / 100, 1e-8).
     pub fn around(p: &IntegrationParameters, samples: u64) -> Ladder {
         let base = Fidelity::of(p);
@@ -139,10 +139,13 @@ impl Ladder {
                 ..base.clone()
             });
         }
-        fidelities.push(Fidelity {
-            locate_impacts: !base.locate_impacts,
-            ..base.clone()
-        });
+        // only the combined scheme's activation loop finds the impacts to locate
+        if base.scheme == Scheme::CombinedProjection {
+            fidelities.push(Fidelity {
+                locate_impacts: !base.locate_impacts,
+                ..base.clone()
+            });
+        }
         for scheme in [
             Scheme::MoreauJean,
             Scheme::CombinedProjection,
