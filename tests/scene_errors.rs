@@ -372,3 +372,33 @@ fn bad_joints_are_rejected_with_field_and_line() {
     let e = joint_error("body_a: ground", "body_a: bar");
     assert!(e.contains("two different bodies"), "{e}");
 }
+
+#[test]
+fn refine_names_an_unknown_contact_or_a_non_positive_step() {
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nrefine: { after: flor, for: 1 ms, h: 1 us }\n",
+        "refine.after",
+        2,
+    );
+    assert!(
+        error_of(
+            "duration: 1 s\n",
+            "duration: 1 s\nrefine: { after: flor, for: 1 ms, h: 1 us }\n"
+        )
+        .contains("floor"),
+        "the error lists the contacts there are"
+    );
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nrefine: { after: floor, for: 1 ms, h: 0 s }\n",
+        "refine.h",
+        2,
+    );
+    expect(
+        "duration: 1 s\n",
+        "duration: 1 s\nrefine: { after: floor, for: -1 ms, h: 1 us }\n",
+        "refine.for",
+        2,
+    );
+}

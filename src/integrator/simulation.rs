@@ -134,6 +134,8 @@ pub struct Simulation {
     /// Time and step count when the step size last changed: t = t0 + (steps − n0) h.
     t0: f64,
     n0: u64,
+    /// End of the refinement window (`Model::refine`) once its contact has closed.
+    refine_until: Option<f64>,
     pub stats: RunStats,
 }
 
@@ -174,6 +176,7 @@ impl Simulation {
             h: params.h,
             t0: state.t,
             n0: 0,
+            refine_until: None,
             model,
             params,
             state,
@@ -249,15 +252,22 @@ impl Simulation {
         self.h
     }
 
-    /// The step that starts now, and the time it ends at when that is the settle's end: the
-    /// settle's step while settling, its last step shortened or stretched (by at most 1e-9)
-    /// to end at `until`; else h.
+    /// The step that starts now, and the time it ends at when that is a phase's end: the
+    /// settle's step while settling, the refinement window's within it, each phase's last
+    /// step shortened or stretched (by at most 1e-9) to end at the phase's end; else h.
     fn next_step(&self) -> (f64, Option<f64>) {
-        let settle = self.model.settling(self.state.t);
-        match settle.and_then(|s| s.step_ratio.map(|r| (s.until, r * self.params.h))) {
-            Some((until, h)) if until - self.state.t <= h * (1.0 + 1e-9) => {
-                (until - self.state.t, Some(until))
-            }
+        let t = self.state.t;
+        let settle = self.model.settling(t);
+        let window = self
+            .refine_until
+            .zip(self.model.refine.as_ref())
+            .map(|(until, r)| (until, r.step_ratio * self.params.h))
+            .filter(|&(until, h)| t < until - 1e-9 * h);
+        match settle
+            .and_then(|s| s.step_ratio.map(|r| (s.until, r * self.params.h)))
+            .or(window)
+        {
+            Some((until, h)) if until - t <= h * (1.0 + 1e-9) => (until - t, Some(until)),
             Some((_, h)) => (h, None),
             None => (self.params.h, None),
         }
@@ -377,6 +387,12 @@ impl Simulation {
             Some((i, s)) => self.split_at_impact(i, s, &trial.active, t_end)?,
         };
         self.stats.steps += 1;
+        // the refinement window opens at the end of the step in which its contact closed
+        if let (None, Some(r)) = (self.refine_until, &self.model.refine) {
+            if r.trigger.iter().any(|&i| self.impulses[i].x > 0.0) {
+                self.refine_until = Some(self.state.t + r.duration);
+            }
+        }
         let s = &mut self.stats;
         s.solver_failures += u64::from(!report.solver.converged);
         s.newton_failures += u64::from(!report.newton_converged);

@@ -9,4 +9,4 @@ pub mod model;
 pub use body::{Motion, Pose, RigidBody, Shape};
 pub use contact::{ContactGeometry, ContactPair, ContactPoint, Primitive};
 pub use force::{ExternalLoad, Force, PointSpring, Profile, TorsionalSpring};
-pub use model::{BodyRef, Model, Settle};
+pub use model::{BodyRef, Model, Refine, Settle};

@@ -31,6 +31,25 @@ pub struct Model {
     pub clearance_joints: Vec<ClearanceJoint>,
     /// The settling phase of a preloaded mechanism, if the scene has one.
     pub settle: Option<Settle>,
+    /// A window of finer steps that a contact's first closing opens, if the scene has one.
+    pub refine: Option<Refine>,
+}
+
+/// A window of finer steps (`refine:` in the scene): from the end of the step in which one
+/// of the `trigger` candidates first carries an impulse, for `duration`, the step is
+/// `step_ratio` times h (the last one ending at the window's end). A mechanism's trip, a
+/// burst of blows and sliding under turning loads, needs a finer step than the approach
+/// before it and the swing after it, and it starts at a contact event whose time changes
+/// from sample to sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refine {
+    /// The contact candidates (one pair or clearance joint) whose closing opens the window.
+    pub trigger: Vec<usize>,
+    /// Length of the window (s).
+    pub duration: f64,
+    /// The window's step over the integrator's h: a ratio, so that a fidelity that changes
+    /// h refines the window with it.
+    pub step_ratio: f64,
 }
 
 /// A settling phase (`settle:` in the scene): until `until` every moving body is damped in

@@ -9,7 +9,8 @@ use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{
-    BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, RigidBody, Settle, Shape,
+    BodyRef, ContactPair, Force, Model, Motion, Primitive, Profile, Refine, RigidBody, Settle,
+    Shape,
 };
 use nalgebra::{Matrix3, Quaternion, Unit, UnitQuaternion, Vector3};
 use serde_saphyr::Spanned;
@@ -1021,6 +1022,13 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
                 None => None,
                 Some(h) => Some(positive(h, Dim::TIME, "settle.h")? / params.h),
             },
+        });
+    }
+    if let Some(r) = &spec.refine {
+        model.refine = Some(Refine {
+            trigger: super::probes::contact(&model, &r.value.after, "refine.after")?,
+            duration: positive(&r.value.duration, Dim::TIME, "refine.for")?,
+            step_ratio: positive(&r.value.h, Dim::TIME, "refine.h")? / params.h,
         });
     }
     let record_every = spec

@@ -12,8 +12,9 @@ use serde_saphyr::Spanned;
 
 type R<T> = Result<T, SceneError>;
 
-/// The contact candidates of a contact pair or clearance joint named `name`.
-fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> {
+/// The contact candidates of a contact pair or clearance joint named `name`; the error names
+/// `field` and lists the names there are.
+pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> {
     let ids: Vec<usize> = model
         .contact_candidates()
         .iter()

@@ -34,6 +34,8 @@ pub struct SceneSpec {
     pub record: RecordSpec,
     /// A settling phase at the start of the run (a preloaded mechanism's assembly).
     pub settle: Option<Spanned<SettleSpec>>,
+    /// A window of finer steps opened by a contact's first closing.
+    pub refine: Option<Spanned<RefineSpec>>,
     /// Named outputs of a run (the study's outputs).
     #[serde(default)]
     pub probes: Vec<ProbeSpec>,
@@ -133,6 +135,17 @@ pub struct SettleSpec {
     pub friction: Option<Spanned<Vec<Name>>>,
     /// The step while settling (default: the integrator's h).
     pub h: Option<Q>,
+}
+
+/// From the first closing of contact `after`, the step is `h` for `for`
+/// (`mechanics::Refine`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefineSpec {
+    pub after: Name,
+    #[serde(rename = "for")]
+    pub duration: Q,
+    pub h: Q,
 }
 
 #[derive(Debug, Default, Deserialize)]
