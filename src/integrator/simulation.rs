@@ -621,7 +621,7 @@ impl Simulation {
             .filter(|&i| !self.is_guard(i))
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
-        let mut last = None;
+        let (mut last, mut settled) = (None, false);
         for pass in 1..=p.max_active_set_passes {
             let vs = self.velocity(&active);
             let mut in_active = vec![false; self.points.len()];
@@ -686,22 +686,18 @@ impl Simulation {
                 .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();
             if new.is_empty() {
-                return Outcome {
-                    active,
-                    vs,
-                    poses,
-                    points: Some(after),
-                    closing,
-                    report,
-                };
+                settled = true;
+                last = Some((active, vs, poses, after));
+                break;
             }
             closing.extend(new.iter().map(|&i| (i, after[i].gap())));
             last = Some((active.clone(), vs, poses, after));
             active.extend(new);
             active.sort_unstable();
         }
-        // the active set did not settle within the allowed passes: keep the last pass, flag it
-        report.projection.converged = false;
+        // an active set that did not settle within the allowed passes keeps the last pass,
+        // flagged
+        report.projection.converged &= settled;
         let (active, vs, poses, after) = last.expect("at least one pass");
         Outcome {
             active,
