@@ -4,7 +4,7 @@
 //!
 //! Layout (see DESIGN.md §3): [`math`] rotation helpers, [`mechanics`] what the system is,
 //! [`integrator`] how it is integrated, [`solver`] pure numerics, [`scene`] the YAML scene
-//! format, [`probe`] a run's named outputs, [`trajectory`] recorded outputs, [`drawing`] SVG views of a mechanism, [`expr`]
+//! format, [`probe`] a run's named outputs, [`probe_run`] a run that produces them (extrapolated over a refinement window), [`trajectory`] recorded outputs, [`drawing`] SVG views of a mechanism, [`expr`]
 //! closed-form expressions, [`study`] the Monte-Carlo runner, store, statistics and sensitivity, [`report`] the HTML report.
 
 pub mod drawing;
@@ -14,6 +14,7 @@ pub mod integrator;
 pub mod math;
 pub mod mechanics;
 pub mod probe;
+pub mod probe_run;
 pub mod report;
 pub mod scene;
 pub mod solver;

@@ -4,7 +4,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use mc_study::drawing::{self, Snapshot, View};
 use mc_study::integrator::Simulation;
-use mc_study::probe::ProbeRecorder;
+use mc_study::probe_run::{run_probes, Branch};
 use mc_study::scene::units::Dim;
 use mc_study::scene::Scene;
 use mc_study::study::converge::{sweep, Fidelity, Ladder};
@@ -290,7 +290,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     let every = scene.record_every;
     let model = scene.model.clone();
     let mut snapshots: Vec<Snapshot> = Vec::new();
-    let mut sim = Simulation::new(scene.model, scene.params)?;
+    let sim = Simulation::new(scene.model, scene.params)?;
     let h = sim.params.h;
     let mut take_snapshots = |s: &Simulation| {
         if let Some(d) = &drawing {
@@ -308,25 +308,25 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     take_snapshots(&sim);
     let mut traj = Trajectory::for_simulation(&sim);
     traj.record(&sim);
-    let mut probes = ProbeRecorder::new(&scene.probes);
-    probes.observe(&sim);
     let start = Instant::now();
-    // per-step work, summed: Newton iterations, solver sweeps (last Newton iteration),
-    // activation passes and active contacts
+    // per-step work, summed over both branches of an extrapolated window: Newton
+    // iterations, solver sweeps (last Newton iteration), activation passes and active
+    // contacts; the trajectory and the drawing follow the main (fine) branch
     let mut work = [0u64; 4];
-    let result = sim.run_until(duration, |s, r| {
-        if format.is_some() && s.stats.steps % every as u64 == 0 {
-            traj.record(s);
+    let run = run_probes(sim, &scene.probes, duration, false, |s, r, branch| {
+        if branch == Branch::Main {
+            if format.is_some() && s.stats.steps % every as u64 == 0 {
+                traj.record(s);
+            }
+            take_snapshots(s);
         }
-        probes.observe(s);
-        take_snapshots(s);
         work[0] += r.newton_iterations as u64;
         work[1] += r.solver.iterations as u64;
         work[2] += r.active_set_passes as u64;
         work[3] += r.active_contacts as u64;
     });
     let wall = start.elapsed();
-    let st = sim.stats;
+    let (sim, st) = (&run.sim, run.stats);
     println!("scene            {} ({})", scene.name, scene_path.display());
     let settle_h = sim.model.settle.as_ref().and_then(|s| s.step_ratio);
     println!(
@@ -340,6 +340,13 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         sim.params.theta
     );
     println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);
+    if let (Some(t), Some(r)) = (run.forked_at, &sim.model.refine) {
+        println!(
+            "extrapolated     from t = {t:.6} s the refinement window was run at h = {:e} s and {:e} s (the trajectory); probes = 2 f(fine) − f(coarse)",
+            2.0 * r.step_ratio * sim.params.h,
+            r.step_ratio * sim.params.h
+        );
+    }
     println!("max penetration  {:.3e} m", st.max_penetration);
     println!("max active       {} contacts", st.max_active_contacts);
     if !sim.model.joints.is_empty() {
@@ -402,11 +409,13 @@ fn simulate(args: SimulateArgs) -> Result<()> {
             d.path.display()
         );
     }
-    result?;
+    if let Some(e) = run.error {
+        bail!(e);
+    }
     if !scene.probes.is_empty() {
         println!("probes");
         let width = scene.probes.iter().map(|p| p.name.len()).max().unwrap_or(0);
-        for (p, v) in scene.probes.iter().zip(probes.finish_each(sim.state.t)) {
+        for (p, v) in scene.probes.iter().zip(run.values) {
             match v {
                 Ok(v) => println!("  {:width$}  {v:.9e} {}", p.name, p.unit),
                 Err(e) => println!("  {:width$}  none: {e}", p.name),

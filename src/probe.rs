@@ -165,6 +165,7 @@ fn closing_delay(gap: f64, u: f64, h: f64) -> f64 {
 }
 
 /// Observes a simulation step by step and produces every probe's value.
+#[derive(Clone)]
 pub struct ProbeRecorder<'a> {
     probes: &'a [Probe],
     progress: Vec<Progress>,

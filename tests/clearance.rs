@@ -346,6 +346,15 @@ fn half_period(scene: Scene) -> f64 {
     reversal.expect("the bar swings back within 1.2 s")
 }
 
+/// The half period at c → 0 tends to the ideal joint's, down to a floor set by the step:
+/// contacts are first order in h where the ideal joint is second order, and a frictionless
+/// journal in a bore of a few micrometres chatters. The chatter makes a single run's half
+/// period a draw: perturbing h by 1e-6 relative moves it by up to ±5e-5 s at c = 1 µm
+/// (a single run at h = 0.1 ms passed the former bound, 3e-5 relative, by luck: two of six
+/// such perturbations did not). So each clearance is measured as the mean over twelve
+/// perturbations of h = 0.1 ms by k·1e-6 (measured: +5.8e-5, −1.2e-5 and −2.2e-5 s from
+/// the ideal joint at c = 100, 10 and 1 µm; the twelve spread over 2e-10, 2e-10 and
+/// 8.6e-5 s), and the floor asserted is 4e-5 relative.
 #[test]
 fn swing_period_converges_to_the_ideal_joint_as_the_clearance_closes() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -361,22 +370,30 @@ fn swing_period_converges_to_the_ideal_joint_as_the_clearance_closes() {
     let t_ideal = half_period(ideal);
     let mut errors = Vec::new();
     for c in [1e-4, 1e-5, 1e-6] {
-        let mut scene = Scene::from_yaml(&text, "clearance").unwrap();
-        scene.set_parameter("joints.pivot.clearance", c).unwrap();
-        // frictionless: Coulomb friction in the bore adds a torque μ N R_J that the ideal
-        // joint does not have, whatever the clearance
-        scene.set_parameter("joints.pivot.mu", 0.0).unwrap();
-        let t = half_period(scene);
-        errors.push((t - t_ideal).abs());
-        eprintln!("c = {c:e} m: half period {t:.5} s (ideal {t_ideal:.5} s)");
+        let periods: Vec<f64> = (0..12)
+            .map(|k| {
+                let mut scene = Scene::from_yaml(&text, "clearance").unwrap();
+                scene.set_parameter("joints.pivot.clearance", c).unwrap();
+                // frictionless: Coulomb friction in the bore adds a torque μ N R_J that the
+                // ideal joint does not have, whatever the clearance
+                scene.set_parameter("joints.pivot.mu", 0.0).unwrap();
+                scene.params.h *= 1.0 + k as f64 * 1e-6;
+                half_period(scene)
+            })
+            .collect();
+        let mean = periods.iter().sum::<f64>() / periods.len() as f64;
+        let spread = periods.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+            - periods.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+        errors.push((mean - t_ideal).abs());
+        eprintln!(
+            "c = {c:e} m: half period {mean:.6} s (ideal {t_ideal:.6} s), difference {:+.2e} s, spread {spread:.1e} s",
+            mean - t_ideal
+        );
     }
     // the clearance delays the swing (free flight, impacts); the delay vanishes with c
-    // the difference shrinks with c down to the floor set by the time step: contacts are
-    // first order in h where the ideal joint is second order (measured: +5.8e-5, −1.2e-5,
-    // −6.7e-6 s at h = 0.1 ms, i.e. up to 1.3e-5 relative)
     assert!(errors[0] > 2.0 * errors[1], "no convergence: {errors:?}");
     assert!(
-        errors[1].max(errors[2]) <= 3e-5 * t_ideal,
+        errors[1].max(errors[2]) <= 4e-5 * t_ideal,
         "at c ≤ 10 µm the half period differs by {errors:?} s"
     );
 }

@@ -11,7 +11,7 @@ use crate::mechanics::force::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6x3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
 /// The joints' bilateral rows evaluated at given poses.
 pub type JointRowsAt<'a> = &'a dyn Fn(&[Pose]) -> Vec<BilateralRow>;
@@ -253,6 +253,14 @@ pub fn velocity_step(
             None => Vec::new(),
         };
         let n = active.len();
+        // Delassus blocks W_cd = Σ_b G_cb y_db over the bodies b both contacts move: the
+        // responses indexed by body, so that only the nonzero blocks are formed
+        let mut responses: Vec<Vec<(usize, &Matrix6x3<f64>)>> = vec![Vec::new(); ndof / 6];
+        for (d, yd) in ys.iter().enumerate() {
+            for (b, y) in yd {
+                responses[*b].push((d, y));
+            }
+        }
         let mut dmat = DMatrix::zeros(3 * n, 3 * n);
         let mut q = DVector::zeros(3 * n);
         for (c, bc) in blocks.iter().enumerate() {
@@ -262,16 +270,11 @@ pub fn velocity_step(
             }
             qc.x += shift[c];
             q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-            for (d, yd) in ys.iter().enumerate() {
-                let mut blk = Matrix3::zeros();
-                for (b, g) in bc {
-                    for (b2, y) in yd {
-                        if b == b2 {
-                            blk += g * y;
-                        }
-                    }
+            for (b, g) in bc {
+                for &(d, y) in &responses[*b] {
+                    let mut blk = dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d);
+                    blk += g * y;
                 }
-                dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d).copy_from(&blk);
             }
         }
         status = solve_fc3d(

@@ -112,6 +112,8 @@ const GUARD_DEPTH: f64 = 0.5;
 /// Normal speed (m/s) below which a pressed contact counts as staying closed.
 const SEPARATION_SPEED: f64 = 1e-9;
 
+/// Cloned where a run forks (`probe_run`): each copy then steps on its own.
+#[derive(Clone)]
 pub struct Simulation {
     pub model: Model,
     pub params: IntegrationParameters,
@@ -250,6 +252,19 @@ impl Simulation {
     /// Size of the step being taken, or of the last one taken.
     pub fn h(&self) -> f64 {
         self.h
+    }
+
+    /// The end of the refinement window, once it has opened.
+    pub fn refine_window_end(&self) -> Option<f64> {
+        self.refine_until
+    }
+
+    /// Halves the refinement window's step from the next step on (the fine branch of an
+    /// extrapolated window, `probe_run`).
+    pub fn halve_refine_step(&mut self) {
+        if let Some(r) = self.model.refine.as_mut() {
+            r.step_ratio *= 0.5;
+        }
     }
 
     /// The step that starts now, and the time it ends at when that is a phase's end: the

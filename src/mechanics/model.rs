@@ -50,6 +50,10 @@ pub struct Refine {
     /// The window's step over the integrator's h: a ratio, so that a fidelity that changes
     /// h refines the window with it.
     pub step_ratio: f64,
+    /// Whether runs with probes take the window twice, at its step and at half of it, and
+    /// report each probe as 2 f(h/2) − f(h) (`probe_run`): Richardson extrapolation, which
+    /// removes the first-order error that the window's sliding contacts leave.
+    pub extrapolate: bool,
 }
 
 /// A settling phase (`settle:` in the scene): until `until` every moving body is damped in

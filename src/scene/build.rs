@@ -1029,6 +1029,7 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
             trigger: super::probes::contact(&model, &r.value.after, "refine.after")?,
             duration: positive(&r.value.duration, Dim::TIME, "refine.for")?,
             step_ratio: positive(&r.value.h, Dim::TIME, "refine.h")? / params.h,
+            extrapolate: r.value.extrapolate,
         });
     }
     let record_every = spec

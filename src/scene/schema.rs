@@ -146,6 +146,9 @@ pub struct RefineSpec {
     #[serde(rename = "for")]
     pub duration: Q,
     pub h: Q,
+    /// Run the window at `h` and at h/2 and extrapolate the probes (default false).
+    #[serde(default)]
+    pub extrapolate: bool,
 }
 
 #[derive(Debug, Default, Deserialize)]

@@ -65,7 +65,12 @@ pub fn contact_rho(block: &Matrix3<f64>) -> f64 {
 /// max(‖r‖, ‖ρ q‖). Zero exactly at a solution; dimensionless and invariant to the units of
 /// impulse and velocity.
 pub fn natural_map_error(p: &Fc3d, r: &DVector<f64>) -> f64 {
-    let u = p.w * r + p.q;
+    natural_map_error_at(p, r, &(p.w * r + p.q))
+}
+
+/// [`natural_map_error`] given u = W r + q (which a solver that knows W's sparsity computes
+/// faster).
+pub fn natural_map_error_at(p: &Fc3d, r: &DVector<f64>, u: &DVector<f64>) -> f64 {
     let mut num = 0.0;
     let mut rq = 0.0;
     for (a, &mu) in p.mu.iter().enumerate() {

@@ -4,7 +4,8 @@
 //! warm start.
 
 use super::fc3d::{
-    contact_rho, local_natural_map, natural_map_error, project_on_cone, Fc3d, SolverStatus,
+    contact_rho, local_natural_map, natural_map_error, natural_map_error_at, project_on_cone, Fc3d,
+    SolverStatus,
 };
 use super::newton::{global_newton, proximal_newton};
 use nalgebra::{DVector, Matrix3, Vector3};
@@ -52,22 +53,18 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
     let blocks: Vec<(Matrix3<f64>, Option<Matrix3<f64>>)> = (0..n)
         .map(|a| {
             let block = p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned();
-            (block, block.lu().try_inverse())
+            (block, block.try_inverse())
         })
         .collect();
-    // the contacts each one is coupled to (nonzero off-diagonal blocks): contacts on
-    // bodies W does not couple leave each other's blocks zero, and skipping them makes a
-    // sweep over a mechanism cost what its couplings cost
-    let coupled: Vec<Vec<usize>> = (0..n)
+    // the contacts each one is coupled to, with their (nonzero) off-diagonal blocks W_ab:
+    // contacts on bodies W does not couple leave each other's blocks zero, and skipping
+    // them makes a sweep over a mechanism cost what its couplings cost
+    let coupled: Vec<Vec<(usize, Matrix3<f64>)>> = (0..n)
         .map(|a| {
             (0..n)
-                .filter(|&b| {
-                    b != a
-                        && p.w
-                            .fixed_view::<3, 3>(3 * a, 3 * b)
-                            .iter()
-                            .any(|&x| x != 0.0)
-                })
+                .filter(|&b| b != a)
+                .map(|b| (b, p.w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned()))
+                .filter(|(_, block)| block.iter().any(|&x| x != 0.0))
                 .collect()
         })
         .collect();
@@ -78,22 +75,15 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
             // q_loc = q_a + Σ_{b≠a} W_ab r_b
             let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]);
-            for &b in &coupled[a] {
-                for j in 3 * b..3 * b + 3 {
-                    let rj = r[j];
-                    if rj != 0.0 {
-                        qloc.x += p.w[(o, j)] * rj;
-                        qloc.y += p.w[(o + 1, j)] * rj;
-                        qloc.z += p.w[(o + 2, j)] * rj;
-                    }
-                }
+            for (b, w_ab) in &coupled[a] {
+                qloc += w_ab * Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
             }
             let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
             r[o] = sol.x;
             r[o + 1] = sol.y;
             r[o + 2] = sol.z;
         }
-        let residual = natural_map_error(p, r);
+        let residual = natural_map_error_at(p, r, &local_velocity(p, r, &blocks, &coupled));
         if residual <= opts.tolerance || !residual.is_finite() {
             return SolverStatus {
                 converged: residual.is_finite(),
@@ -122,6 +112,25 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
         }
     }
     last_resort(p, r, opts, opts.max_sweeps)
+}
+
+/// u = W r + q over the nonzero blocks of W only (each contact's own and `coupled`).
+fn local_velocity(
+    p: &Fc3d,
+    r: &DVector<f64>,
+    blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
+    coupled: &[Vec<(usize, Matrix3<f64>)>],
+) -> DVector<f64> {
+    let rb = |b: usize| Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
+    let mut u = p.q.clone();
+    for (a, others) in coupled.iter().enumerate() {
+        let mut ua = u.fixed_rows::<3>(3 * a) + blocks[a].0 * rb(a);
+        for (b, w_ab) in others {
+            ua += w_ab * rb(*b);
+        }
+        u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
+    }
+    u
 }
 
 /// NSGS and the global Newton both failed: try the global Newton again from the sweeps'
@@ -239,7 +248,7 @@ fn alart_curnier_newton(
         if f0.sqrt() <= tol {
             return Some(r);
         }
-        let dr = jac.lu().solve(&(-phi))?;
+        let dr = jac.try_inverse()? * (-phi);
         // Armijo backtracking on ½‖Φ‖²
         let mut t = 1.0;
         loop {

@@ -2,7 +2,7 @@
 //! analytic function scene. One sample = set the parameters, run, read the outputs.
 
 use crate::integrator::Simulation;
-use crate::probe::ProbeRecorder;
+use crate::probe_run::run_probes;
 use crate::scene::units::Dim;
 use crate::scene::{FunctionScene, Scene, SceneError};
 use serde::Deserialize;
@@ -133,24 +133,12 @@ impl Subject {
                         return (Vec::new(), Diagnostics::default(), Some(e));
                     }
                 }
-                let mut sim = match Simulation::new(scene.model, scene.params) {
+                let sim = match Simulation::new(scene.model, scene.params) {
                     Ok(s) => s,
                     Err(e) => return (Vec::new(), Diagnostics::default(), Some(e.to_string())),
                 };
-                let mut recorder = ProbeRecorder::new(&scene.probes);
-                recorder.observe(&sim);
-                let mut failure = None;
-                while !sim.reached(scene.duration) {
-                    if let Err(e) = sim.step() {
-                        failure = Some(e.to_string());
-                        break;
-                    }
-                    recorder.observe(&sim);
-                    if recorder.done() {
-                        break;
-                    }
-                }
-                let st = sim.stats;
+                let run = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
+                let st = run.stats;
                 let diagnostics = Diagnostics {
                     steps: st.steps,
                     max_penetration: st.max_penetration,
@@ -160,10 +148,10 @@ impl Subject {
                         + st.projection_failures,
                     wall_ms: 0.0,
                 };
-                if let Some(e) = failure {
+                if let Some(e) = run.error {
                     return (Vec::new(), diagnostics, Some(e));
                 }
-                match recorder.finish(sim.state.t) {
+                match run.values.into_iter().collect() {
                     Ok(values) => (values, diagnostics, None),
                     Err(e) => (Vec::new(), diagnostics, Some(e)),
                 }

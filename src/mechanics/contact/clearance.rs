@@ -13,7 +13,7 @@
 //!   journal inside the hexagon they circumscribe, instead of letting it slide along the
 //!   closest point's tangent plane and projecting it back from far outside the ring.
 
-use super::{point_row, ContactGeometry, ContactPoint, Lateral};
+use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
 use crate::mechanics::model::BodyRef;
@@ -89,8 +89,8 @@ impl ClearanceJoint {
             a_j: pj.dir(&self.journal_axis),
             c_b: pb.point(&self.bore_center),
             p_j: pj.point(&self.journal_point),
-            pb,
-            pj,
+            pb: BodyFrame::new(pb),
+            pj: BodyFrame::new(pj),
         }
     }
 
@@ -101,8 +101,8 @@ impl ClearanceJoint {
         let ring = |side: f64| {
             let centre = f.c_b + f.a_b * (side * 0.5 * self.bore_length);
             let ring = Ring::new(centre, f.a_b, self.bore_radius());
-            let phi = ring.closest_angle(&f.p_j, &f.a_j);
-            (ring, phi)
+            let (sin, cos) = ring.closest_angle(&f.p_j, &f.a_j).sin_cos();
+            (ring, (cos, sin))
         };
         Placed {
             rings: [ring(-1.0), ring(1.0)],
@@ -143,9 +143,14 @@ impl ClearanceJoint {
                 1 => (1.0, 0),
                 _ => self.guard(k),
             };
-            let (ring, closest) = &placed.rings[usize::from(side > 0.0)];
-            let phi = closest + 2.0 * std::f64::consts::PI * offset as f64 / RING_POINTS as f64;
-            let g = ring.point_against_journal(phi, &p_j, &a_j, self.journal_radius);
+            let (ring, (cos, sin)) = &placed.rings[usize::from(side > 0.0)];
+            // the closest point's angle turned by offset/RING_POINTS of a turn
+            let (turn_cos, turn_sin) = ring_turns()[offset];
+            let at = (
+                cos * turn_cos - sin * turn_sin,
+                sin * turn_cos + cos * turn_sin,
+            );
+            let g = ring.point_against_journal(at, &p_j, &a_j, self.journal_radius);
             let t2 = g.normal.cross(&a_j);
             let guard = offset != 0;
             // a guard is open when it acts: frictionless, on the linearised gap
@@ -179,7 +184,7 @@ impl ClearanceJoint {
             let local = self.journal_point
                 + self.journal_axis * offset
                 + (b1 * phi.cos() + b2 * phi.sin()) * self.flange_radius;
-            let x = pj.point(&local);
+            let x = pj.pose.point(&local);
             let nu = a_b * side;
             let face = c_b + a_b * (side * 0.5 * self.bore_length);
             let gap = (x - face).dot(&nu);
@@ -206,7 +211,13 @@ impl ClearanceJoint {
     /// surface point moved in by R_J) displaced along n × a_J, κ = 1/|e| with |e| = R_B − the
     /// ring's distance to the axis (floored at c/1000: the gap is a cone at |e| = 0, but
     /// there it is c, far from any projection).
-    fn lateral(&self, g: &ContactGeometry, a_j: &Vector3<f64>, pb: &Pose, pj: &Pose) -> Lateral {
+    fn lateral(
+        &self,
+        g: &ContactGeometry,
+        a_j: &Vector3<f64>,
+        pb: &BodyFrame,
+        pj: &BodyFrame,
+    ) -> Lateral {
         let foot = g.point2 - g.normal * self.journal_radius;
         let dir = g.normal.cross(a_j);
         let offset = (self.clearance - g.gap).max(1e-3 * self.clearance);
@@ -243,19 +254,31 @@ impl ClearanceJoint {
 /// and centre, the journal axis and point.
 #[derive(Clone, Copy)]
 struct Frames {
-    pb: Pose,
-    pj: Pose,
+    pb: BodyFrame,
+    pj: BodyFrame,
     a_b: Vector3<f64>,
     a_j: Vector3<f64>,
     c_b: Vector3<f64>,
     p_j: Vector3<f64>,
 }
 
-/// A clearance joint placed at given poses: its frames, and each ring (−, +) with its
-/// closest-point angle.
+/// A clearance joint placed at given poses: its frames, and each ring (−, +) with the
+/// cosine and sine of its closest-point angle.
 struct Placed {
     frames: Frames,
-    rings: [(Ring, f64); 2],
+    rings: [(Ring, (f64, f64)); 2],
+}
+
+/// (cos, sin) of k/RING_POINTS of a turn, k = 0…RING_POINTS − 1: the guards' angles from the
+/// closest point, turned by products instead of a sine and cosine per guard.
+fn ring_turns() -> &'static [(f64, f64); RING_POINTS] {
+    static TURNS: std::sync::OnceLock<[(f64, f64); RING_POINTS]> = std::sync::OnceLock::new();
+    TURNS.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let (sin, cos) = (2.0 * std::f64::consts::PI * k as f64 / RING_POINTS as f64).sin_cos();
+            (cos, sin)
+        })
+    })
 }
 
 /// A bore's end ring: centre, unit normal (the bore axis), radius, and a basis of its plane.
@@ -274,8 +297,9 @@ impl Ring {
         Ring { c, a, r, b1, b2 }
     }
 
-    fn point(&self, phi: f64) -> Vector3<f64> {
-        self.c + (self.b1 * phi.cos() + self.b2 * phi.sin()) * self.r
+    /// The ring point at the angle whose cosine and sine are `at`.
+    fn point(&self, (cos, sin): (f64, f64)) -> Vector3<f64> {
+        self.c + (self.b1 * cos + self.b2 * sin) * self.r
     }
 
     /// Angle of the ring point closest to the axis (`p`, unit `aj`): from where the axis
@@ -316,16 +340,17 @@ impl Ring {
         phi
     }
 
-    /// The ring point at angle `phi` against the cylinder (`p`, `aj`, radius `rj`): the
-    /// normal points from the cylinder surface towards the ring point, gap = distance − rj.
+    /// The ring point at the angle whose cosine and sine are `at`, against the cylinder
+    /// (`p`, `aj`, radius `rj`): the normal points from the cylinder surface towards the
+    /// ring point, gap = distance − rj.
     fn point_against_journal(
         &self,
-        phi: f64,
+        at: (f64, f64),
         p: &Vector3<f64>,
         aj: &Vector3<f64>,
         rj: f64,
     ) -> ContactGeometry {
-        let ring_point = self.point(phi);
+        let ring_point = self.point(at);
         let foot = p + aj * (ring_point - p).dot(aj);
         let d = ring_point - foot;
         let dist = d.norm();
@@ -355,6 +380,6 @@ pub fn ring_journal(
     rj: f64,
 ) -> ContactGeometry {
     let ring = Ring::new(*c, *a, r);
-    let phi = ring.closest_angle(p, aj);
-    ring.point_against_journal(phi, p, aj, rj)
+    let (sin, cos) = ring.closest_angle(p, aj).sin_cos();
+    ring.point_against_journal((cos, sin), p, aj, rj)
 }

@@ -67,8 +67,36 @@ pub struct Lateral {
 
 /// Gradient (twist coordinates) of the displacement along `dir` of the material point of a
 /// body at `point`: dirᵀ (v + ω × (point − x)).
-pub fn point_row(dir: &Vector3<f64>, pose: &Pose, point: &Vector3<f64>) -> RowVector6<f64> {
-    let lever = skew(&(pose.x - point)) * pose.p.to_rotation_matrix().matrix();
+pub fn point_row(dir: &Vector3<f64>, body: &BodyFrame, point: &Vector3<f64>) -> RowVector6<f64> {
+    lever_row(dir, &lever(body, point))
+}
+
+/// A body's pose with its rotation matrix, built once where several contact points share
+/// the body (a clearance joint's 22).
+#[derive(Clone, Copy, Debug)]
+pub struct BodyFrame {
+    pub pose: Pose,
+    pub rotation: Matrix3<f64>,
+}
+
+impl BodyFrame {
+    pub fn new(pose: Pose) -> Self {
+        BodyFrame {
+            pose,
+            rotation: *pose.p.to_rotation_matrix().matrix(),
+        }
+    }
+}
+
+/// skew(x − point) R: maps the body-frame angular velocity to the velocity of the material
+/// point at `point` due to the rotation. Built once per body and contact, it serves the
+/// three rows of the contact frame.
+fn lever(body: &BodyFrame, point: &Vector3<f64>) -> Matrix3<f64> {
+    skew(&(body.pose.x - point)) * body.rotation
+}
+
+/// [dirᵀ, dirᵀ lever]: the gradient row of `point_row` for a lever built by `lever`.
+fn lever_row(dir: &Vector3<f64>, lever: &Matrix3<f64>) -> RowVector6<f64> {
     let mut row = RowVector6::zeros();
     row.fixed_columns_mut::<3>(0).copy_from(&dir.transpose());
     row.fixed_columns_mut::<3>(3)
@@ -148,7 +176,14 @@ impl ContactPair {
         let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
         let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
         ContactPoint::new(
-            geometry, self.body1, &p1, self.body2, &p2, None, self.mu, self.e,
+            geometry,
+            self.body1,
+            &BodyFrame::new(p1),
+            self.body2,
+            &BodyFrame::new(p2),
+            None,
+            self.mu,
+            self.e,
         )
     }
 }
@@ -160,9 +195,9 @@ impl ContactPoint {
     pub fn new(
         geometry: ContactGeometry,
         body1: BodyRef,
-        p1: &Pose,
+        p1: &BodyFrame,
         body2: BodyRef,
-        p2: &Pose,
+        p2: &BodyFrame,
         tangents: Option<(Vector3<f64>, Vector3<f64>)>,
         mu: f64,
         e: f64,
@@ -170,8 +205,9 @@ impl ContactPoint {
         let n = geometry.normal;
         let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
         let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
-        let jac = |pose: &Pose, sign: f64| -> Matrix3x6<f64> {
-            let row = |d: &Vector3<f64>| point_row(d, pose, &geometry.point1) * sign;
+        let jac = |body: &BodyFrame, sign: f64| -> Matrix3x6<f64> {
+            let lever = lever(body, &geometry.point1);
+            let row = |d: &Vector3<f64>| lever_row(d, &lever) * sign;
             Matrix3x6::from_rows(&[row(&n), row(&t1), row(&t2)])
         };
         ContactPoint {

@@ -1,0 +1,161 @@
+//! A run that produces probe values: it steps a simulation, observes its probes, may stop
+//! once every probe is known, and extrapolates over the refinement window when the scene
+//! asks for it (`refine: { extrapolate: true }`).
+//!
+//! Extrapolation (Richardson): where the window opens, the run forks. The coarse branch
+//! takes the window at its step h_w, the fine branch (the one the caller keeps) at h_w/2;
+//! everything before the fork is shared, so probes known by then are identical in both.
+//! Each probe is reported as 2 f(h_w/2) − f(h_w), which cancels the error that is first
+//! order in h_w: the friction of contacts sliding under turning loads leaves such an error
+//! in the Moreau–Jean step, smooth in h_w once impacts are located.
+
+use crate::integrator::{RunStats, SimError, Simulation, StepReport};
+use crate::probe::{Probe, ProbeRecorder};
+
+/// Which branch a step belongs to: the main one (the only one without extrapolation, the
+/// fine one after the fork) or the coarse one of an extrapolated window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Branch {
+    Main,
+    Coarse,
+}
+
+/// The outcome of [`run_probes`].
+pub struct ProbeRun {
+    /// The main branch's simulation where it stopped.
+    pub sim: Simulation,
+    /// Each probe's value (extrapolated when the run forked), or why it has none.
+    pub values: Vec<Result<f64, String>>,
+    /// The first failure of either branch; the values are then those up to the failure.
+    pub error: Option<String>,
+    /// Both branches' diagnostics: counts summed (shared steps once), extremes combined.
+    pub stats: RunStats,
+    /// Where the run forked (the window's opening), if it did.
+    pub forked_at: Option<f64>,
+}
+
+/// Runs `sim` to `t_end` with `probes` (stopping early once all are known if
+/// `stop_when_known`), calling `observe` after every step of either branch.
+pub fn run_probes(
+    mut sim: Simulation,
+    probes: &[Probe],
+    t_end: f64,
+    stop_when_known: bool,
+    mut observe: impl FnMut(&Simulation, &StepReport, Branch),
+) -> ProbeRun {
+    let extrapolate = sim.model.refine.as_ref().is_some_and(|r| r.extrapolate);
+    let mut recorder = ProbeRecorder::new(probes);
+    recorder.observe(&sim);
+    let mut stop = Stop {
+        t_end,
+        when_known: stop_when_known,
+        at_fork: extrapolate,
+    };
+    let mut outcome = advance(&mut sim, &mut recorder, &stop, |s, r| {
+        observe(s, r, Branch::Main)
+    });
+    let mut coarse = None;
+    if outcome == Ok(Reached::Fork) {
+        let (mut c, mut c_recorder) = (sim.clone(), recorder.clone());
+        stop.at_fork = false;
+        let c_outcome = advance(&mut c, &mut c_recorder, &stop, |s, r| {
+            observe(s, r, Branch::Coarse)
+        });
+        let fork_stats = sim.stats;
+        let forked_at = sim.state.t;
+        sim.halve_refine_step();
+        outcome = advance(&mut sim, &mut recorder, &stop, |s, r| {
+            observe(s, r, Branch::Main)
+        });
+        coarse = Some((c, c_recorder, c_outcome, fork_stats, forked_at));
+    }
+    let mut error = outcome.err().map(|e| e.to_string());
+    let mut values = recorder.finish_each(sim.state.t);
+    let mut stats = sim.stats;
+    let mut forked_at = None;
+    if let Some((c, c_recorder, c_outcome, fork_stats, at)) = coarse {
+        forked_at = Some(at);
+        if let (None, Err(e)) = (&error, c_outcome) {
+            error = Some(format!("{e} (in the extrapolation's coarse branch)"));
+        }
+        let coarse_values = c_recorder.finish_each(c.state.t);
+        values = values
+            .into_iter()
+            .zip(coarse_values)
+            .map(|(fine, coarse)| match (fine, coarse) {
+                (Ok(f), Ok(c)) => Ok(2.0 * f - c),
+                (Err(e), _) => Err(e),
+                (Ok(_), Err(e)) => Err(format!("{e} (in the extrapolation's coarse branch)")),
+            })
+            .collect();
+        stats = merged(&sim.stats, &c.stats, &fork_stats);
+    }
+    ProbeRun {
+        sim,
+        values,
+        error,
+        stats,
+        forked_at,
+    }
+}
+
+/// When a branch stops stepping.
+struct Stop {
+    t_end: f64,
+    when_known: bool,
+    /// Stop where the refinement window opens (to fork there).
+    at_fork: bool,
+}
+
+#[derive(Debug, PartialEq)]
+enum Reached {
+    End,
+    Fork,
+}
+
+/// Steps one branch until `stop` says so.
+fn advance(
+    sim: &mut Simulation,
+    recorder: &mut ProbeRecorder,
+    stop: &Stop,
+    mut observe: impl FnMut(&Simulation, &StepReport),
+) -> Result<Reached, SimError> {
+    while !sim.reached(stop.t_end) {
+        let opened = sim.refine_window_end().is_some();
+        let report = sim.step()?;
+        recorder.observe(sim);
+        observe(sim, &report);
+        if stop.when_known && recorder.done() {
+            break;
+        }
+        if stop.at_fork && !opened && sim.refine_window_end().is_some() {
+            return Ok(Reached::Fork);
+        }
+    }
+    Ok(Reached::End)
+}
+
+/// The diagnostics of a forked run: the fine branch's, plus what the coarse branch did
+/// after the fork (`fork` holds the counts at the fork, shared by both).
+fn merged(fine: &RunStats, coarse: &RunStats, fork: &RunStats) -> RunStats {
+    let after = |c: u64, f: u64| c - f;
+    RunStats {
+        steps: fine.steps + after(coarse.steps, fork.steps),
+        solver_failures: fine.solver_failures + after(coarse.solver_failures, fork.solver_failures),
+        newton_failures: fine.newton_failures + after(coarse.newton_failures, fork.newton_failures),
+        projection_failures: fine.projection_failures
+            + after(coarse.projection_failures, fork.projection_failures),
+        impact_splits: fine.impact_splits + after(coarse.impact_splits, fork.impact_splits),
+        max_penetration: fine.max_penetration.max(coarse.max_penetration),
+        max_joint_violation: fine.max_joint_violation.max(coarse.max_joint_violation),
+        max_joint_angle_violation: fine
+            .max_joint_angle_violation
+            .max(coarse.max_joint_angle_violation),
+        max_solver_residual: fine.max_solver_residual.max(coarse.max_solver_residual),
+        max_active_contacts: fine.max_active_contacts.max(coarse.max_active_contacts),
+        max_active_set_passes: fine.max_active_set_passes.max(coarse.max_active_set_passes),
+        max_projection_iterations: fine
+            .max_projection_iterations
+            .max(coarse.max_projection_iterations),
+    }
+}
