@@ -78,7 +78,8 @@ enum Command {
     /// `--samples` design samples run over a ladder (h₀ × 10, 5, 2, 1, ½; solver tolerance
     /// × 100 and ÷ 100; projection tolerance × 100; θ = 1; impacts located or not, the
     /// other way from the scene (combined projection only); the other schemes; the `fast`
-    /// and `accurate` presets) against a reference at h₀/10. Errors are in units of each
+    /// and `accurate` presets; the refinement window extrapolated or not, the other way
+    /// from the scene, if it has one) against a reference at h₀/10. Errors are in units of each
     /// output's Monte-Carlo σ when a result directory with summary.json is found
     /// (`--results`, default the study's output directory), else relative. Prints the
     /// table, writes OUT/converge.csv and the work–precision plot OUT/work-precision.svg
@@ -470,7 +471,7 @@ fn converge(
         bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
     };
     let base = Fidelity::of(&scene.params);
-    let mut ladder = Ladder::around(&scene.params, samples);
+    let mut ladder = Ladder::around_scene(scene, samples);
     if !hs.is_empty() {
         if let Some(h) = hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
             bail!("--h: step sizes must be positive, got {h}");

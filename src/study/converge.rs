@@ -27,6 +27,9 @@ pub struct Fidelity {
     pub projection_tolerance: f64,
     /// Impacts located within their steps (`IntegrationParameters::locate_impacts`).
     pub locate_impacts: bool,
+    /// Whether the scene's refinement window is extrapolated (`refine.extrapolate`); `None`
+    /// leaves it as the scene has it.
+    pub extrapolate: Option<bool>,
     /// The preset this rung is, if any (`fast`, `balanced`, `accurate`).
     pub preset: Option<Preset>,
 }
@@ -40,6 +43,7 @@ impl Fidelity {
             solver_tolerance: p.solver.tolerance,
             projection_tolerance: p.projection_tolerance,
             locate_impacts: p.locate_impacts,
+            extrapolate: None,
             preset: None,
         }
     }
@@ -72,8 +76,13 @@ impl Fidelity {
         } else {
             ""
         };
+        let window = match self.extrapolate {
+            Some(true) => " window extrapolated",
+            Some(false) => " window not extrapolated",
+            None => "",
+        };
         format!(
-            "{preset}h={:e} {} θ={} tol={:e} proj={:e}{located}",
+            "{preset}h={:e} {} θ={} tol={:e} proj={:e}{located}{window}",
             self.h,
             self.scheme.name(),
             self.theta,
@@ -82,9 +91,13 @@ impl Fidelity {
         )
     }
 
-    /// The study YAML block selecting this fidelity.
+    /// The study YAML block selecting this fidelity (with, for a rung that changes the
+    /// refinement window, what to change in the scene: a study's fidelity does not reach it).
     pub fn yaml(&self) -> String {
-        match self.preset {
+        let window = self.extrapolate.map_or(String::new(), |x| {
+            format!("# and in the scene: refine: {{ …, extrapolate: {x} }}\n")
+        });
+        let block = match self.preset {
             Some(p) => format!("fidelity: {{ preset: {} }}\n", p.name()),
             None => format!(
                 "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n  locate_impacts: {}\n",
@@ -95,7 +108,8 @@ impl Fidelity {
                 exp_form(self.projection_tolerance),
                 self.locate_impacts
             ),
-        }
+        };
+        block + &window
     }
 }
 
@@ -171,6 +185,19 @@ impl Ladder {
             samples,
         }
     }
+
+    /// The default ladder around a mechanism scene's settings: [`Ladder::around`] and, when
+    /// the scene has a refinement window, its extrapolation the other way from the scene.
+    pub fn around_scene(scene: &crate::scene::Scene, samples: u64) -> Ladder {
+        let mut ladder = Ladder::around(&scene.params, samples);
+        if let Some(r) = &scene.model.refine {
+            ladder.fidelities.push(Fidelity {
+                extrapolate: Some(!r.extrapolate),
+                ..Fidelity::of(&scene.params)
+            });
+        }
+        ladder
+    }
 }
 
 /// One run: outputs (NaN where failed), wall time and the failure, if any.
@@ -221,6 +248,9 @@ pub fn sweep(
     for f in &fidelities {
         let mut s = (**scene).clone();
         f.apply(&mut s.params);
+        if let (Some(x), Some(r)) = (f.extrapolate, s.model.refine.as_mut()) {
+            r.extrapolate = x;
+        }
         let subject = Subject::Mechanism(Box::new(s));
         let row: Vec<Run> = samples
             .iter()
@@ -329,7 +359,7 @@ impl Convergence {
     /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "h,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+            "h,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,extrapolate,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
         );
         let reference = self.reference();
         for (f, fid) in self.fidelities.iter().enumerate() {
@@ -338,13 +368,14 @@ impl Convergence {
                     let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
                     let _ = writeln!(
                         s,
-                        "{:e},{},{},{:e},{:e},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        "{:e},{},{},{:e},{:e},{},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
                         fid.h,
                         fid.scheme.name(),
                         fid.theta,
                         fid.solver_tolerance,
                         fid.projection_tolerance,
                         fid.locate_impacts,
+                        fid.extrapolate.map_or(String::new(), |x| x.to_string()),
                         fid.preset.map_or("", |p| p.name()),
                         self.sample_names[j],
                         name,
