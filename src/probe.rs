@@ -325,13 +325,15 @@ impl<'a> ProbeRecorder<'a> {
                 };
                 let end = t.min(t1.unwrap_or(f64::INFINITY));
                 let w = end - t_prev.max(t0);
-                if w > 0.0 {
-                    let opened_by_event = matches!(from, Some(TimeRef::Probe(_))) && t0 > t_prev;
-                    let whole_impulse =
-                        opened_by_event && matches!(measure, Measure::ContactForce(_));
+                let opened_by_event = matches!(from, Some(TimeRef::Probe(_))) && t0 > t_prev;
+                let whole_impulse = opened_by_event && matches!(measure, Measure::ContactForce(_));
+                // the event's impulse counts even when the event is timed at the step's very
+                // end (w = 0): a contact closing late in a step whose free-flight estimate
+                // overshoots it is timed there, and its impact would otherwise be dropped
+                if w > 0.0 || (whole_impulse && t0 <= end) {
                     let covered = if whole_impulse { end - t_prev } else { w };
                     g.acc += covered * measure.value(sim);
-                    g.weight += w;
+                    g.weight += w.max(0.0);
                 }
                 continue;
             }
