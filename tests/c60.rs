@@ -87,14 +87,15 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
 
 /// The frictionless settle ends in the one equilibrium of the sampled geometry, whatever
 /// the step: halving h moves FC-1 by less than 1e-5 N and FC-2…FC-6 by less than 0.5 nm
-/// (8e-7 N and at most 0.13 nm measured). With friction in J4 while settling the hook could
+/// (1.4e-7 N and at most 0.04 nm measured, settling at tolerance 1e-8; 8e-7 N and 0.13 nm
+/// at 1e-6). With friction in J4 while settling the hook could
 /// rest anywhere in its friction band, and the step chose where: 2.5e-4 N and 4.9 nm.
 #[test]
 fn latched_state_does_not_depend_on_the_step() {
     let text = scene_text();
-    let settle = "friction: [], h: 5 us }";
+    let settle = "friction: [], h: 5 us, tolerance: 1e-8 }";
     assert!(text.contains(settle));
-    let fine = text.replace(settle, "friction: [], h: 2.5 us }");
+    let fine = text.replace(settle, "friction: [], h: 2.5 us, tolerance: 1e-8 }");
     let latched = |text: &str| {
         let subject = subject(text);
         let (names, _): (Vec<String>, Vec<_>) = subject.outputs().into_iter().unzip();
@@ -126,12 +127,12 @@ fn latched_state_does_not_depend_on_the_step() {
 
 /// With frictionless joints (the ideal joint has no friction), every output tends to that
 /// of the ideal-joint mechanism as the clearances close: at c = 1e-6 mm (1 nm) all ten
-/// outputs agree to 1e-3 relative (measured: the trip and opening times to 9.5e-5 and
-/// 1.2e-4, the tripping force to 5.6e-4; with h perturbed by 1, 2 and 3e-6 relative the
-/// tripping force was 4.3–8.0e-4 away: a systematic 6e-4 and the chatter of the
-/// frictionless journals). The geometric FCs converge at first order (asserted: at least 50-fold per
+/// outputs agree to 1e-3 relative (measured: the trip and opening times to 2.1e-4 and
+/// 2.3e-4, the tripping force to 4.6e-4; with h perturbed by 1, 2 and 3e-6 relative the
+/// tripping force was 4.3–8.0e-4 away, settling at 1e-6: a systematic 6e-4 and the
+/// chatter of the frictionless journals). The geometric FCs converge at first order (asserted: at least 50-fold per
 /// 100-fold in c; 100-fold twice measured), FC-1 noisily (asserted 2-fold at 100 nm and
-/// 100-fold over both decades; 2.5-fold and 415-fold measured, and at 100 nm anywhere
+/// 100-fold over both decades; 3.2-fold and 131-fold measured, and at 100 nm anywhere
 /// from 2.5e-4 to 2.4e-3 relative as rounding-level changes of the solver move the
 /// chatter): the small journals chatter without friction, and the main contact's force
 /// with them. At 1 nm one step

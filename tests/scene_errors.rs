@@ -80,6 +80,12 @@ fn settle_names_an_unknown_contact_or_a_negative_damping() {
         "settle.h",
         7,
     );
+    expect(
+        "contacts:",
+        "settle: { until: 1 ms, tolerance: -1e-8 }\ncontacts:",
+        "settle.tolerance",
+        7,
+    );
 }
 
 #[test]

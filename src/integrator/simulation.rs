@@ -288,12 +288,21 @@ impl Simulation {
         }
     }
 
-    /// The integration parameters of the current step (h may be the settle's).
+    /// The integration parameters of the current step (h may be the settle's, and so may
+    /// the solver's tolerance).
     fn step_params(&self) -> IntegrationParameters {
-        IntegrationParameters {
+        let mut p = IntegrationParameters {
             h: self.h,
             ..self.params.clone()
+        };
+        if let Some(r) = self
+            .model
+            .settling(self.state.t)
+            .and_then(|s| s.tolerance_ratio)
+        {
+            p.solver.tolerance *= r;
         }
+        p
     }
 
     fn velocity(&self, active: &[usize]) -> VelocityStep {

@@ -77,6 +77,11 @@ pub struct Settle {
     /// settle with it. A damped approach to rest needs a coarser step than the dynamics
     /// after it.
     pub step_ratio: Option<f64>,
+    /// The contact solver's tolerance while settling over the integrator's (`None`: the
+    /// same), a ratio for the same reason. Where the frictionless rest leaves the load
+    /// split between a journal's two rings to the solver, a loose tolerance can end the
+    /// settle elsewhere, and the trip with it.
+    pub tolerance_ratio: Option<f64>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,

@@ -1022,6 +1022,12 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
                 None => None,
                 Some(h) => Some(positive(h, Dim::TIME, "settle.h")? / params.h),
             },
+            tolerance_ratio: match &s.value.tolerance {
+                None => None,
+                Some(t) => {
+                    Some(positive(t, Dim::NONE, "settle.tolerance")? / params.solver.tolerance)
+                }
+            },
         });
     }
     if let Some(r) = &spec.refine {

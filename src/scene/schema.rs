@@ -135,6 +135,8 @@ pub struct SettleSpec {
     pub friction: Option<Spanned<Vec<Name>>>,
     /// The step while settling (default: the integrator's h).
     pub h: Option<Q>,
+    /// The contact solver's tolerance while settling (default: the integrator's).
+    pub tolerance: Option<Q>,
 }
 
 /// From the first closing of contact `after`, the step is `h` for `for`
