@@ -369,12 +369,6 @@ impl<'a> ProbeRecorder<'a> {
         self.progress.iter().all(|g| g.value.is_some())
     }
 
-    /// The values at the end of the run, or why a probe has none (an event that did not
-    /// happen, an empty window): the first such reason fails the sample.
-    pub fn finish(self, t_end: f64) -> Result<Vec<f64>, String> {
-        self.finish_each(t_end).into_iter().collect()
-    }
-
     /// Each probe's value at the end of the run, or why it has none.
     pub fn finish_each(mut self, t_end: f64) -> Vec<Result<f64, String>> {
         let mut out = Vec::with_capacity(self.probes.len());

@@ -371,12 +371,9 @@ mod tests {
         }
     }
 
-    /// The wrench of each element is minus the gradient of its potential (central finite
-    /// differences along translations and body-frame rotations): a wrong sign or lever arm
-    /// fails this.
-    #[test]
-    fn forces_derive_from_their_potentials() {
-        let poses = vec![
+    /// Two bodies in general position: translated and tilted about all three axes.
+    fn tilted_poses() -> Vec<Pose> {
+        vec![
             Pose {
                 x: Vector3::new(0.1, 0.2, 0.3),
                 p: UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5),
@@ -385,7 +382,15 @@ mod tests {
                 x: Vector3::new(1.0, -0.4, 0.7),
                 p: UnitQuaternion::from_euler_angles(-0.1, 0.4, 1.2),
             },
-        ];
+        ]
+    }
+
+    /// The wrench of each element is minus the gradient of its potential (central finite
+    /// differences along translations and body-frame rotations): a wrong sign or lever arm
+    /// fails this.
+    #[test]
+    fn forces_derive_from_their_potentials() {
+        let poses = tilted_poses();
         let spring = Force::Spring(PointSpring {
             ramp: 0.0,
             a: Some(0),
@@ -447,16 +452,7 @@ mod tests {
     /// the bodies spinning (a wrong sign or a transposed block fails it).
     #[test]
     fn torsional_damping_jacobian_matches_differences() {
-        let poses = vec![
-            Pose {
-                x: Vector3::new(0.1, 0.2, 0.3),
-                p: UnitQuaternion::from_euler_angles(0.3, -0.2, 0.5),
-            },
-            Pose {
-                x: Vector3::new(1.0, -0.4, 0.7),
-                p: UnitQuaternion::from_euler_angles(-0.1, 0.4, 1.2),
-            },
-        ];
+        let poses = tilted_poses();
         let mut spring = TorsionalSpring::new(
             Some(0),
             Some(1),
