@@ -87,15 +87,15 @@ fn nominal_sample_latches_trips_and_opens_at_the_operating_point() {
 
 /// The frictionless settle ends in the one equilibrium of the sampled geometry, whatever
 /// the step: halving h moves FC-1 by less than 1e-5 N and FC-2…FC-6 by less than 0.5 nm
-/// (1.4e-7 N and at most 0.04 nm measured, settling at tolerance 1e-8; 8e-7 N and 0.13 nm
+/// (1.4e-7 N and at most 0.04 nm measured, settling at tolerance 1e-10 as at 1e-8; 8e-7 N and 0.13 nm
 /// at 1e-6). With friction in J4 while settling the hook could
 /// rest anywhere in its friction band, and the step chose where: 2.5e-4 N and 4.9 nm.
 #[test]
 fn latched_state_does_not_depend_on_the_step() {
     let text = scene_text();
-    let settle = "friction: [], h: 5 us, tolerance: 1e-8 }";
+    let settle = "friction: [], h: 5 us, tolerance: 1e-10 }";
     assert!(text.contains(settle));
-    let fine = text.replace(settle, "friction: [], h: 2.5 us, tolerance: 1e-8 }");
+    let fine = text.replace(settle, "friction: [], h: 2.5 us, tolerance: 1e-10 }");
     let latched = |text: &str| {
         let subject = subject(text);
         let (names, _): (Vec<String>, Vec<_>) = subject.outputs().into_iter().unzip();
@@ -127,42 +127,65 @@ fn latched_state_does_not_depend_on_the_step() {
 
 /// With frictionless joints (the ideal joint has no friction), every output tends to that
 /// of the ideal-joint mechanism as the clearances close: at c = 1e-6 mm (1 nm) all ten
-/// outputs agree to 1e-3 relative (measured: the trip and opening times to 2.1e-4 and
-/// 2.3e-4, the tripping force to 4.6e-4; with h perturbed by 1, 2 and 3e-6 relative the
-/// tripping force was 4.3–8.0e-4 away, settling at 1e-6: a systematic 6e-4 and the
-/// chatter of the frictionless journals). The geometric FCs converge at first order (asserted: at least 50-fold per
+/// outputs agree to 1e-3 relative. At 1 nm one step carries a journal across its clearance
+/// a thousand times over (the ring guards keep it in its bore), the frictionless journals
+/// chatter, and the trip's outputs become a draw: h perturbed by 1e-6 relative, or a
+/// rounding-level change of the engine, moves the tripping force by about ±5e-4 relative,
+/// around a bias that the solver's tolerance sets (single runs at the scene's 1e-6 were
+/// 0.2–1.35e-3 low, −7e-4 on average over seven perturbations). So both mechanisms run at
+/// the scene's steps with the solver at 1e-8 (the convergence study's reference tolerance:
+/// this checks the model, not the solver), and the 1 nm outputs are the mean over six
+/// perturbations of every step by k·1e-6, k = 0…5 (measured: the trip and opening times
+/// 1.4e-4 and 1.3e-4 from the ideal's, the tripping force 3.7e-4; single runs −5.6e-4 to
+/// +4.9e-4). The geometric FCs converge at first order (asserted: at least 50-fold per
 /// 100-fold in c; 100-fold twice measured), FC-1 noisily (asserted 2-fold at 100 nm and
-/// 100-fold over both decades; 3.2-fold and 131-fold measured, and at 100 nm anywhere
-/// from 2.5e-4 to 2.4e-3 relative as rounding-level changes of the solver move the
-/// chatter): the small journals chatter without friction, and the main contact's force
-/// with them. At 1 nm one step
-/// carries a journal across its clearance: the ring guards keep it in its bore. At the
-/// nominal 0.07 mm FC-1 and FC-4 differ by percents: the comparison resolves the clearance
-/// effect it checks. Both mechanisms run at the scene's step.
+/// 100-fold over both decades; 4.5-fold and 150-fold measured): the small journals chatter
+/// without friction, and the main contact's force with them. At the nominal 0.07 mm FC-1
+/// and FC-4 differ by percents: the comparison resolves the clearance effect it checks.
 #[test]
 fn vanishing_clearances_give_the_ideal_mechanism() {
-    let text = scene_text();
+    let scene = scene_text();
+    let text = scene.replace("solver: { tolerance: 1e-6 }", "solver: { tolerance: 1e-8 }");
+    assert_ne!(
+        text, scene,
+        "the scene's solver tolerance changed: update this test"
+    );
     let ideal_text = text.replace("type: revolute-clearance", "type: revolute");
     assert_ne!(ideal_text, text);
     let (ideal, names) = run(&subject(&ideal_text), &[]);
     assert_eq!(ideal.error, None);
-    let clearance = subject(&text);
-    let errors_at = |c: f64| -> Vec<f64> {
+    // the clearance mechanism with every step perturbed by k·1e-6 relative
+    let perturbed = |k: usize| {
+        let scale = 1.0 + k as f64 * 1e-6;
+        let t = text
+            .replace("\n  h: 5 us\n", &format!("\n  h: {} us\n", 5.0 * scale))
+            .replace("for: 3 ms, h: 1 us", &format!("for: 3 ms, h: {} us", scale));
+        assert!(
+            k == 0 || t != text,
+            "the scene's steps changed: update this test"
+        );
+        subject(&t)
+    };
+    // the outputs at clearance c, the mean over the perturbations `ks`, relative to the ideal
+    let errors_at = |c: f64, ks: &[usize]| -> Vec<f64> {
         let mut p = every_joint("clearance", c);
         p.extend(every_joint("mu", 0.0));
-        let (o, _) = run(&clearance, &p);
-        assert_eq!(o.error, None, "c = {c}");
-        // every projection converges, also where each ring's gap curves on the scale of c
-        assert_eq!(o.diagnostics.nonconverged_steps, 0, "c = {c}");
-        assert!(
-            o.diagnostics.max_penetration <= 2e-10,
-            "c = {c}: {:?}",
-            o.diagnostics
-        );
-        o.outputs
-            .iter()
+        let mut sum = vec![0.0; names.len()];
+        for &k in ks {
+            let (o, _) = run(&perturbed(k), &p);
+            assert_eq!(o.error, None, "c = {c}, perturbation {k}");
+            // every projection converges, also where each ring's gap curves on the scale of c
+            assert_eq!(o.diagnostics.nonconverged_steps, 0, "c = {c}");
+            assert!(
+                o.diagnostics.max_penetration <= 2e-10,
+                "c = {c}: {:?}",
+                o.diagnostics
+            );
+            sum.iter_mut().zip(&o.outputs).for_each(|(s, x)| *s += x);
+        }
+        sum.iter()
             .zip(&ideal.outputs)
-            .map(|(x, y)| (x / y - 1.0).abs())
+            .map(|(x, y)| (x / ks.len() as f64 / y - 1.0).abs())
             .collect()
     };
     // the worst error of the named outputs
@@ -173,7 +196,11 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
             .filter(|(n, _)| outputs.iter().any(|o| n.starts_with(o)))
             .fold(0.0f64, |w, (_, &x)| w.max(x))
     };
-    let (coarse, fine, finest) = (errors_at(1e-5), errors_at(1e-7), errors_at(1e-9));
+    let (coarse, fine, finest) = (
+        errors_at(1e-5, &[0]),
+        errors_at(1e-7, &[0]),
+        errors_at(1e-9, &[0, 1, 2, 3, 4, 5]),
+    );
     for (k, name) in names.iter().enumerate() {
         eprintln!(
             "{name}: relative error {:.1e} at 10 µm, {:.1e} at 100 nm, {:.1e} at 1 nm",
@@ -205,7 +232,7 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
         f1 < f0 / 2.0 && f2 < f0 / 100.0,
         "FC-1: relative error {f0:e} at 10 µm, {f1:e} at 100 nm, {f2:e} at 1 nm"
     );
-    let nominal = errors_at(0.07e-3);
+    let nominal = errors_at(0.07e-3, &[0]);
     let fc = |n: &str| names.iter().position(|x| x == n).unwrap();
     assert!(
         nominal[fc("FC1_contact_force")] > 1e-2 && nominal[fc("FC4_needle_lamage_x")] > 1e-2,

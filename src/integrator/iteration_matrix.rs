@@ -1,8 +1,10 @@
 //! The iteration matrix W = M − hθ ∂F/∂v − h²θ² ∂F/∂ν of the θ-scheme's Newton loop
 //! (`moreau_jean.md` §2.2), with ν the body-frame tangent coordinates of the poses.
 //!
-//! The gyroscopic Jacobian is analytic; the stiffness and damping of the force elements are
-//! central finite differences of each element alone (cheap: an element touches ≤ 2 bodies).
+//! The gyroscopic Jacobian is analytic, and so are the torsional springs' stiffness and
+//! damping (`Force::stiffness_jacobian`, `Force::damping_jacobian`); those of the other force
+//! elements are central finite differences of each element alone (cheap: an element
+//! touches ≤ 2 bodies).
 //! W is block diagonal over the groups of bodies that force elements couple (a spring
 //! between two moving bodies joins their groups): one 6×6 LU per lone body, one dense LU
 //! per coupled group, so a mechanism with a few coupled pairs never pays for a dense
@@ -11,7 +13,7 @@
 use crate::math::skew;
 use crate::mechanics::force::Twist;
 use crate::mechanics::{Model, Pose};
-use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6, Matrix6x3};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6, Matrix6x3};
 use std::collections::BTreeMap;
 
 /// Relative finite-difference step for force-element Jacobians.
@@ -173,23 +175,39 @@ impl<'m> IterationMatrix<'m> {
         // perturbed copies of the state, restored after each difference
         let mut pert_poses = poses.to_vec();
         let mut pert_twists = v.as_slice().to_vec();
+        let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
+        // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
+        let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
+                                   off: &mut BTreeMap<(usize, usize), Matrix6<f64>>,
+                                   blocks: Vec<(usize, usize, Matrix3<f64>)>,
+                                   weight: f64| {
+            for (x, y, d) in blocks.into_iter().filter(|b| moving(b.0) && moving(b.1)) {
+                let blk = if x == y {
+                    &mut diag[x]
+                } else {
+                    off.entry((x, y)).or_insert_with(Matrix6::zeros)
+                };
+                let mut rot = blk.fixed_view_mut::<3, 3>(3, 3);
+                rot -= d * weight;
+            }
+        };
         for f in stiff {
-            let by_pose = f.depends_on_pose();
+            let mut by_pose = f.depends_on_pose();
             let mut by_vel = f.depends_on_velocity();
             if by_vel {
                 if let Some(blocks) = f.damping_jacobian(poses) {
-                    let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
-                    for (x, y, d) in blocks.into_iter().filter(|b| moving(b.0) && moving(b.1)) {
-                        let blk = if x == y {
-                            &mut diag[x]
-                        } else {
-                            off.entry((x, y)).or_insert_with(Matrix6::zeros)
-                        };
-                        let mut rot = blk.fixed_view_mut::<3, 3>(3, 3);
-                        rot -= d * (h * theta);
-                    }
+                    add_rotation_blocks(&mut diag, &mut off, blocks, h * theta);
                     by_vel = false;
                 }
+            }
+            if by_pose {
+                if let Some(blocks) = f.stiffness_jacobian(t, poses, twists) {
+                    add_rotation_blocks(&mut diag, &mut off, blocks, h * h * theta * theta);
+                    by_pose = false;
+                }
+            }
+            if !by_pose && !by_vel {
+                continue;
             }
             let bodies: Vec<usize> = f
                 .bodies()

@@ -108,12 +108,34 @@ fn evaluate_rows(
     }
 }
 
-/// M⁻¹ Rᵀ for the rows R (ndof × rows), body block by body block.
-fn inverse_mass_times_transpose(minv: &[Matrix6<f64>], r: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(r.ncols(), r.nrows());
-    for (b, mi) in minv.iter().enumerate() {
-        let blk = mi * r.columns(6 * b, 6).transpose();
-        out.rows_mut(6 * b, 6).copy_from(&blk);
+/// M⁻¹ Rᵀ for the rows R (ndof × rows): each row touches at most two bodies, so each
+/// column is at most two blocks M_b⁻¹ g_bᵀ (held dofs are zero in `minv`, which masks them).
+fn inverse_mass_times_rows(
+    minv: &[Matrix6<f64>],
+    rows: &[BilateralRow],
+    ndof: usize,
+) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(ndof, rows.len());
+    for (k, row) in rows.iter().enumerate() {
+        for (b, g) in row.a.iter().chain(row.b.iter()) {
+            let mut col = out.fixed_view_mut::<6, 1>(6 * b, k);
+            col += minv[*b] * g.transpose();
+        }
+    }
+    out
+}
+
+/// R X for the rows R and a matrix X with a row per dof, over each row's (at most two)
+/// bodies only: R M⁻¹ Rᵀ without the dense product's zeros (a held dof needs no mask
+/// here: its row of M⁻¹ Rᵀ is zero).
+fn rows_times(rows: &[BilateralRow], x: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(rows.len(), x.ncols());
+    for (k, row) in rows.iter().enumerate() {
+        for (b, g) in row.a.iter().chain(row.b.iter()) {
+            for j in 0..x.ncols() {
+                out[(k, j)] += (g * x.fixed_view::<6, 1>(6 * b, j))[0];
+            }
+        }
     }
     out
 }
@@ -148,7 +170,7 @@ impl<'a> Linearised<'a> {
         tolerance: f64,
     ) -> Self {
         let (cmat, _) = bilateral_matrix(&current.rows, mask, ndof);
-        let mct = inverse_mass_times_transpose(minv, &cmat);
+        let mct = inverse_mass_times_rows(minv, &current.rows, ndof);
         let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
         let mut linear = Linearised {
             current,
@@ -159,14 +181,13 @@ impl<'a> Linearised<'a> {
             tolerance,
             lambda: DVector::zeros(0),
         };
-        linear.lambda = linear.multipliers(&linear.mct);
+        linear.lambda = linear.multipliers(rows_times(&current.rows, &linear.mct));
         linear
     }
 
-    /// Λ from C H⁻¹ Cᵀ Λ = −c (complementarity on the contact rows in `Inequality` mode),
-    /// given H⁻¹ Cᵀ.
-    fn multipliers(&self, hct: &DMatrix<f64>) -> DVector<f64> {
-        let a = &self.cmat * hct;
+    /// Λ from A Λ = −c with A = C H⁻¹ Cᵀ (complementarity on the contact rows in
+    /// `Inequality` mode).
+    fn multipliers(&self, a: DMatrix<f64>) -> DVector<f64> {
         let (n, njoint) = (self.current.rows.len(), self.current.njoint);
         match self.mode {
             ContactRows::Inequality if n > njoint => {
@@ -200,7 +221,7 @@ impl<'a> Linearised<'a> {
         let mut lambda = self.lambda.clone();
         let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
         let (lmat, _) = bilateral_matrix(&lateral, mask, ndof);
-        let mlt = inverse_mass_times_transpose(minv, &lmat);
+        let mlt = inverse_mass_times_rows(minv, &lateral, ndof);
         let llt = &lmat * &mlt;
         let lmct = &lmat * &self.mct;
         let stiffness = |lambda: &DVector<f64>| -> Vec<f64> {
@@ -227,7 +248,7 @@ impl<'a> Linearised<'a> {
             }
             let chol = schur.cholesky()?;
             hct = &self.mct - mlt.select_columns(&on) * chol.solve(&lmct.select_rows(&on));
-            let next = self.multipliers(&hct);
+            let next = self.multipliers(&self.cmat * &hct);
             let settled = (&next - &lambda).norm() <= 1e-3 * next.norm();
             lambda = next;
             if settled {

@@ -101,8 +101,8 @@ impl ClearanceJoint {
         let ring = |side: f64| {
             let centre = f.c_b + f.a_b * (side * 0.5 * self.bore_length);
             let ring = Ring::new(centre, f.a_b, self.bore_radius());
-            let (sin, cos) = ring.closest_angle(&f.p_j, &f.a_j).sin_cos();
-            (ring, (cos, sin))
+            let at = ring.closest_angle(&f.p_j, &f.a_j);
+            (ring, at)
         };
         Placed {
             rings: [ring(-1.0), ring(1.0)],
@@ -180,10 +180,11 @@ impl ClearanceJoint {
             let offset = side * 0.5 * (self.bore_length + self.axial_play);
             let b1 = any_orthogonal(&self.journal_axis);
             let b2 = self.journal_axis.cross(&b1);
-            let phi = 2.0 * std::f64::consts::PI * idx as f64 / self.rim_points as f64;
+            let (sin, cos) =
+                (2.0 * std::f64::consts::PI * idx as f64 / self.rim_points as f64).sin_cos();
             let local = self.journal_point
                 + self.journal_axis * offset
-                + (b1 * phi.cos() + b2 * phi.sin()) * self.flange_radius;
+                + (b1 * cos + b2 * sin) * self.flange_radius;
             let x = pj.pose.point(&local);
             let nu = a_b * side;
             let face = c_b + a_b * (side * 0.5 * self.bore_length);
@@ -302,10 +303,13 @@ impl Ring {
         self.c + (self.b1 * cos + self.b2 * sin) * self.r
     }
 
-    /// Angle of the ring point closest to the axis (`p`, unit `aj`): from where the axis
-    /// crosses the ring plane, refined by Newton on f'(φ) = 0 with
-    /// f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0.
-    fn closest_angle(&self, p: &Vector3<f64>, aj: &Vector3<f64>) -> f64 {
+    /// Cosine and sine of the angle of the ring point closest to the axis (`p`, unit
+    /// `aj`): from where the axis crosses the ring plane, refined by Newton on f'(φ) = 0
+    /// with f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0. The angle is kept as
+    /// its cosine and sine, each Newton step δ applied as the rotation by atan δ (exact,
+    /// normalised): the same root, reached as fast (atan δ = δ − δ³/3), without a sine,
+    /// cosine or arctangent per joint and step.
+    fn closest_angle(&self, p: &Vector3<f64>, aj: &Vector3<f64>) -> (f64, f64) {
         let (c, a, r, b1, b2) = (&self.c, &self.a, self.r, &self.b1, &self.b2);
         let denom = a.dot(aj);
         let s = if denom.abs() > 1e-12 {
@@ -315,13 +319,13 @@ impl Ring {
         };
         let e = s - c;
         let (ex, ey) = (e.dot(b1), e.dot(b2));
-        let mut phi = if ex.hypot(ey) > 0.0 {
-            ey.atan2(ex)
+        let norm = ex.hypot(ey);
+        let (mut cs, mut sn) = if norm > 0.0 {
+            (ex / norm, ey / norm)
         } else {
-            0.0
+            (1.0, 0.0)
         };
         for _ in 0..NEWTON_STEPS {
-            let (sn, cs) = phi.sin_cos();
             let w = c + (b1 * cs + b2 * sn) * r - p;
             let w1 = (b2 * cs - b1 * sn) * r;
             let w2 = -(b1 * cs + b2 * sn) * r;
@@ -331,13 +335,15 @@ impl Ring {
             if d2 <= 0.0 {
                 break;
             }
+            // φ ← φ − atan δ
             let step = d1 / d2;
-            phi -= step;
-            if step.abs() <= 1e-15 * (1.0 + phi.abs()) {
+            let k = 1.0 / (1.0 + step * step).sqrt();
+            (cs, sn) = ((cs + step * sn) * k, (sn - step * cs) * k);
+            if step.abs() <= 1e-15 {
                 break;
             }
         }
-        phi
+        (cs, sn)
     }
 
     /// The ring point at the angle whose cosine and sine are `at`, against the cylinder
@@ -380,6 +386,5 @@ pub fn ring_journal(
     rj: f64,
 ) -> ContactGeometry {
     let ring = Ring::new(*c, *a, r);
-    let (sin, cos) = ring.closest_angle(p, aj).sin_cos();
-    ring.point_against_journal((cos, sin), p, aj, rj)
+    ring.point_against_journal(ring.closest_angle(p, aj), p, aj, rj)
 }
