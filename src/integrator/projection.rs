@@ -147,11 +147,10 @@ const CURVATURE_RATIO: f64 = 0.1;
 /// Fixed-point passes on the multipliers of the curvature terms.
 const CURVATURE_PASSES: usize = 8;
 
-/// The linearised projection problem at the current poses: C, M⁻¹ Cᵀ, the values c and
-/// the Gauss–Newton multipliers.
+/// The linearised projection problem at the current poses (C is `current.rows`): M⁻¹ Cᵀ,
+/// the values c and the Gauss–Newton multipliers.
 struct Linearised<'a> {
     current: &'a Evaluated,
-    cmat: DMatrix<f64>,
     mct: DMatrix<f64>,
     c: DVector<f64>,
     mode: ContactRows,
@@ -163,18 +162,15 @@ struct Linearised<'a> {
 impl<'a> Linearised<'a> {
     fn new(
         current: &'a Evaluated,
-        mask: &[bool],
         minv: &[Matrix6<f64>],
         ndof: usize,
         mode: ContactRows,
         tolerance: f64,
     ) -> Self {
-        let (cmat, _) = bilateral_matrix(&current.rows, mask, ndof);
         let mct = inverse_mass_times_rows(minv, &current.rows, ndof);
         let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
         let mut linear = Linearised {
             current,
-            cmat,
             mct,
             c,
             mode,
@@ -220,6 +216,9 @@ impl<'a> Linearised<'a> {
         }
         let mut lambda = self.lambda.clone();
         let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
+        // C and L as dense matrices for the products with H⁻¹ Cᵀ, built only where this
+        // step is tried (the Gauss–Newton step in `new` goes row by row)
+        let (cmat, _) = bilateral_matrix(&self.current.rows, mask, ndof);
         let (lmat, _) = bilateral_matrix(&lateral, mask, ndof);
         let mlt = inverse_mass_times_rows(minv, &lateral, ndof);
         let llt = &lmat * &mlt;
@@ -248,7 +247,7 @@ impl<'a> Linearised<'a> {
             }
             let chol = schur.cholesky()?;
             hct = &self.mct - mlt.select_columns(&on) * chol.solve(&lmct.select_rows(&on));
-            let next = self.multipliers(&self.cmat * &hct);
+            let next = self.multipliers(&cmat * &hct);
             let settled = (&next - &lambda).norm() <= 1e-3 * next.norm();
             lambda = next;
             if settled {
@@ -312,7 +311,7 @@ pub fn project(
         // the Gauss–Newton step, full or half; where neither does its work and a contact's
         // gap bends sharply across its normal, the sequential-quadratic step in its place,
         // halved as needed
-        let linear = Linearised::new(&current, mask, minv, ndof, mode, tolerance);
+        let linear = Linearised::new(&current, minv, ndof, mode, tolerance);
         let gauss_newton = linear.gauss_newton();
         if gauss_newton.iter().any(|x| !x.is_finite()) {
             break;

@@ -449,6 +449,37 @@ mod tests {
         ]
     }
 
+    /// Body-frame twists of two bodies spinning about every axis.
+    const SPINNING: [f64; 12] = [
+        0.1, -0.2, 0.3, 4.0, -2.5, 7.0, -0.4, 0.5, 0.2, -3.0, 1.5, 9.0,
+    ];
+
+    /// A torsional spring and damper on a tilted axis from `a` to body 1 (k = 5, c = 0.7,
+    /// preload 1.5), at φ = 0 in `built`.
+    fn tilted_spring(a: BodyRef, built: &[Pose], rest_angle: f64) -> TorsionalSpring {
+        TorsionalSpring::new(
+            a,
+            Some(1),
+            Vector3::new(0.2, -0.3, 1.0),
+            built,
+            5.0,
+            0.7,
+            1.5,
+            rest_angle,
+        )
+    }
+
+    /// A constant world force on body 0: an element without closed-form Jacobians.
+    fn constant_load() -> Force {
+        Force::External(ExternalLoad {
+            body: 0,
+            point: Vector3::zeros(),
+            force: Some(Profile::Constant(Vector3::new(0.0, 0.0, -1.0))),
+            torque: None,
+            frame: Frame::World,
+        })
+    }
+
     /// The wrench of each element is minus the gradient of its potential (central finite
     /// differences along translations and body-frame rotations): a wrong sign or lever arm
     /// fails this.
@@ -519,9 +550,7 @@ mod tests {
     #[test]
     fn torsional_stiffness_matches_differences() {
         let poses = tilted_poses();
-        let twists = [
-            0.1, -0.2, 0.3, 4.0, -2.5, 7.0, -0.4, 0.5, 0.2, -3.0, 1.5, 9.0,
-        ];
+        let twists = SPINNING;
         // built at other poses, so that φ ≠ 0 and the reference directions leave the plane
         let built = vec![
             poses[0],
@@ -531,16 +560,7 @@ mod tests {
             },
         ];
         for a in [Some(0), None] {
-            let mut spring = TorsionalSpring::new(
-                a,
-                Some(1),
-                Vector3::new(0.2, -0.3, 1.0),
-                &built,
-                5.0,
-                0.7,
-                1.5,
-                0.2,
-            );
+            let mut spring = tilted_spring(a, &built, 0.2);
             spring.ramp = 2.0;
             let f = Force::Torsional(spring);
             let t = 0.5;
@@ -572,14 +592,9 @@ mod tests {
                 "the blocks are not trivially zero: {largest}"
             );
         }
-        let load = Force::External(ExternalLoad {
-            body: 0,
-            point: Vector3::zeros(),
-            force: Some(Profile::Constant(Vector3::new(0.0, 0.0, -1.0))),
-            torque: None,
-            frame: Frame::World,
-        });
-        assert!(load.stiffness_jacobian(0.0, &poses, &twists).is_none());
+        assert!(constant_load()
+            .stiffness_jacobian(0.0, &poses, &twists)
+            .is_none());
     }
 
     /// The torsional damper's closed-form velocity Jacobian matches central differences of
@@ -588,21 +603,8 @@ mod tests {
     #[test]
     fn torsional_damping_jacobian_matches_differences() {
         let poses = tilted_poses();
-        let mut spring = TorsionalSpring::new(
-            Some(0),
-            Some(1),
-            Vector3::new(0.2, -0.3, 1.0),
-            &poses,
-            5.0,
-            0.7,
-            1.5,
-            0.0,
-        );
-        spring.ramp = 0.0;
-        let f = Force::Torsional(spring);
-        let twists = [
-            0.1, -0.2, 0.3, 4.0, -2.5, 7.0, -0.4, 0.5, 0.2, -3.0, 1.5, 9.0,
-        ];
+        let f = Force::Torsional(tilted_spring(Some(0), &poses, 0.0));
+        let twists = SPINNING;
         let blocks = f.damping_jacobian(&poses).expect("a damper has one");
         assert_eq!(blocks.len(), 4);
         for (x, y, d) in blocks {
@@ -621,13 +623,6 @@ mod tests {
             }
         }
         // other elements have none
-        let load = Force::External(ExternalLoad {
-            body: 0,
-            point: Vector3::zeros(),
-            force: Some(Profile::Constant(Vector3::new(0.0, 0.0, -1.0))),
-            torque: None,
-            frame: Frame::World,
-        });
-        assert!(load.damping_jacobian(&poses).is_none());
+        assert!(constant_load().damping_jacobian(&poses).is_none());
     }
 }
