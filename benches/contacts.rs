@@ -5,7 +5,6 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use mc_study::extremes::box_stack;
-use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
 use std::hint::black_box;
 
@@ -38,7 +37,7 @@ fn bench(c: &mut Criterion, group: &str, n: usize, contacts: usize, s: &Scene) {
         b.iter_batched(
             || {
                 // start from the resting state, every contact active
-                let mut sim = Simulation::new(s.model.clone(), s.params.clone()).unwrap();
+                let mut sim = s.simulation().unwrap();
                 for _ in 0..5 {
                     sim.step().unwrap();
                 }

@@ -11,7 +11,7 @@
 //! Criterion reports time per element = per step. Run: `cargo bench --bench step`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use mc_study::integrator::{Scheme, Simulation};
+use mc_study::integrator::Scheme;
 use mc_study::scene::Scene;
 use std::hint::black_box;
 use std::path::Path;
@@ -37,7 +37,7 @@ fn bench_with(c: &mut Criterion, group: &str, label: &str, s: Scene, duration: f
     g.sample_size(20);
     g.bench_function(label, |b| {
         b.iter_batched(
-            || Simulation::new(s.model.clone(), s.params.clone()).unwrap(),
+            || s.simulation().unwrap(),
             |mut sim| {
                 sim.run_until(duration, |_, _| {}).unwrap();
                 black_box(sim.state.t)

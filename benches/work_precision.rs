@@ -5,7 +5,7 @@
 //! `mc-study converge`). Run: `cargo bench --bench work_precision` (about 2 minutes;
 //! `-- ball` or `-- body` for one scene). Times are medians of 3 runs on one core.
 
-use mc_study::integrator::{Scheme, Simulation};
+use mc_study::integrator::Scheme;
 use mc_study::report::figures::{save, WorkPrecisionFigure};
 use mc_study::scene::Scene;
 use mc_study::study::subject::Subject;
@@ -29,7 +29,7 @@ fn scene(name: &str) -> Scene {
 /// quaternion at the end of its run; the error if the run failed.
 fn outputs(s: &Scene) -> Result<(Vec<String>, Vec<f64>), String> {
     if s.probes.is_empty() {
-        let mut sim = Simulation::new(s.model.clone(), s.params.clone()).unwrap();
+        let mut sim = s.simulation().unwrap();
         sim.run_until(s.duration, |_, _| {})
             .map_err(|e| e.to_string())?;
         let q = sim.state.poses[0].p;

@@ -2,7 +2,6 @@
 //! Markdown table: `cargo run --release --example clearance_extremes`. The test suite runs
 //! a smaller matrix (tests/clearance.rs); this is the full one published in the README.
 
-use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -25,7 +24,7 @@ fn main() {
                 scene.set_parameter("joints.pivot.clearance", c).unwrap();
                 scene.set_parameter("joints.pivot.mu", mu).unwrap();
                 scene.params.h = h;
-                let mut sim = Simulation::new(scene.model, scene.params).unwrap();
+                let mut sim = scene.simulation().unwrap();
                 let start = Instant::now();
                 let result = sim.run_until(t, |_, _| {});
                 let us = start.elapsed().as_secs_f64() * 1e6 / sim.stats.steps.max(1) as f64;

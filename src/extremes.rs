@@ -8,7 +8,6 @@
 //! `tests/extremes.rs` runs the matrix at a size CI affords; `cargo run --release --example
 //! extremes` runs it in full and prints the table published in the README.
 
-use crate::integrator::Simulation;
 use crate::scene::Scene;
 use std::time::Instant;
 
@@ -59,7 +58,7 @@ pub struct Cell {
 impl Case {
     pub fn run(mut self) -> Cell {
         let h = self.scene.params.h;
-        let mut sim = match Simulation::new(self.scene.model.clone(), self.scene.params.clone()) {
+        let mut sim = match self.scene.simulation() {
             Ok(s) => s,
             Err(e) => return self.failed_to_start(h, e.to_string()),
         };

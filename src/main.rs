@@ -291,7 +291,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     let every = scene.record_every;
     let model = scene.model.clone();
     let mut snapshots: Vec<Snapshot> = Vec::new();
-    let sim = Simulation::new(scene.model, scene.params)?;
+    let sim = scene.simulation()?;
     let h = sim.params.h;
     let mut take_snapshots = |s: &Simulation| {
         if let Some(d) = &drawing {
@@ -329,7 +329,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     let wall = start.elapsed();
     let (sim, st) = (&run.sim, run.stats);
     println!("scene            {} ({})", scene.name, scene_path.display());
-    let settle_h = sim.model.settle.as_ref().and_then(|s| s.step_ratio);
+    let settle_h = sim.schedule.settle.as_ref().and_then(|s| s.step_ratio);
     println!(
         "scheme           {} h = {:e} s{}, θ = {}",
         sim.params.scheme.name(),
@@ -341,7 +341,7 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         sim.params.theta
     );
     println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);
-    if let (Some(t), Some(r)) = (run.forked_at, &sim.model.refine) {
+    if let (Some(t), Some(r)) = (run.forked_at, &sim.schedule.refine) {
         println!(
             "extrapolated     from t = {t:.6} s the refinement window was run at h = {:e} s and {:e} s (the trajectory); probes = 2 f(fine) − f(coarse)",
             2.0 * r.step_ratio * sim.params.h,

@@ -43,7 +43,7 @@ pub fn run_probes(
     stop_when_known: bool,
     mut observe: impl FnMut(&Simulation, &StepReport, Branch),
 ) -> ProbeRun {
-    let extrapolate = sim.model.refine.as_ref().is_some_and(|r| r.extrapolate);
+    let extrapolate = sim.schedule.refine.as_ref().is_some_and(|r| r.extrapolate);
     let mut recorder = ProbeRecorder::new(probes);
     recorder.observe(&sim);
     let mut stop = Stop {
@@ -63,7 +63,7 @@ pub fn run_probes(
         });
         let fork_stats = sim.stats;
         let forked_at = sim.state.t;
-        sim.halve_refine_step();
+        sim.schedule.halve_refine_step();
         outcome = advance(&mut sim, &mut recorder, &stop, |s, r| {
             observe(s, r, Branch::Main)
         });

@@ -4,7 +4,6 @@
 //! (the normal taken at the step's start): the fork reproduces the two plain runs exactly,
 //! and the extrapolated probes converge at second order.
 
-use mc_study::integrator::Simulation;
 use mc_study::probe_run::run_probes;
 use mc_study::scene::Scene;
 use mc_study::study::subject::Subject;
@@ -64,7 +63,7 @@ fn the_fork_reproduces_the_two_plain_runs_exactly() {
         assert_eq!(extrapolated[k], 2.0 * fine[k] - coarse[k], "probe {k}");
     }
     let scene = Scene::from_yaml(&pendulum("0.2 ms", true), "pendulum").unwrap();
-    let sim = Simulation::new(scene.model, scene.params).unwrap();
+    let sim = scene.simulation().unwrap();
     let fork = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
     let at = fork.forked_at.expect("the window opened");
     let fall = (2.0 * 0.07e-3 / 9.81f64).sqrt();

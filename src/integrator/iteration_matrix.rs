@@ -11,7 +11,7 @@
 //! factorisation of the whole system.
 
 use crate::math::skew;
-use crate::mechanics::force::Twist;
+use crate::mechanics::body::Twist;
 use crate::mechanics::{Model, Pose};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6, Matrix6x3};
 use std::collections::BTreeMap;

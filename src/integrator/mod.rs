@@ -1,11 +1,15 @@
 //! How the model is integrated: the Moreau–Jean θ-scheme (velocity level, impulses, Newton
 //! impact law), its parameters, and the time loop with per-step diagnostics.
 
+mod activation;
+mod impact;
 pub mod iteration_matrix;
 pub mod moreau_jean;
 pub mod params;
 pub mod projection;
+pub mod schedule;
 pub mod simulation;
 
 pub use params::{IntegrationParameters, Preset, Scheme};
+pub use schedule::{Refine, Schedule, Settle};
 pub use simulation::{RunStats, SimError, Simulation, StepReport};

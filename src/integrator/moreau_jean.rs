@@ -7,7 +7,7 @@
 
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
-use crate::mechanics::force::Twist;
+use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
@@ -122,6 +122,20 @@ impl Elimination {
     }
 }
 
+/// Where a velocity step starts: the model and its integrated degrees of freedom
+/// (`mask`, `model.dof_mask()`), the step's parameters, the settling damping in force, and
+/// the state (t, poses, v0).
+pub struct StepStart<'a> {
+    pub model: &'a Model,
+    pub mask: &'a [bool],
+    pub params: &'a IntegrationParameters,
+    /// α of the settling phase's damping −α M v in this step (0 outside it).
+    pub damping: f64,
+    pub t: f64,
+    pub poses: &'a [Pose],
+    pub v0: &'a DVector<f64>,
+}
+
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
 /// warm-started from `warm` (one impulse per active contact), and the bilateral rows
 /// of the joints, `joints(q̄)` (rates b at t + h/2). The joints are imposed at the
@@ -129,28 +143,29 @@ impl Elimination {
 /// iterate: this keeps the θ = 1/2 scheme second order on constrained motion, where
 /// frozen start-of-step rows H(q_k) v_{k+1} = b are only first order (measured on the
 /// pendulum: order 2.00 vs 1.00, 230× smaller error at h = 1 ms). The position drift left
-/// is O(h³) per step and the projection removes it. `mask` is `model.dof_mask()`.
+/// is O(h³) per step and the projection removes it.
 ///
 /// The Delassus matrix is assembled block by block from the sparse contact Jacobians.
 /// With joints the equality rows are eliminated exactly (Schur complement, `Elimination`)
 /// and the contacts see the constrained operator W⁻¹ − W⁻¹Hᵀ(HW⁻¹Hᵀ)⁻¹HW⁻¹, which differs
 /// from W⁻¹ only for the contacts on bodies coupled to the joints.
-#[allow(clippy::too_many_arguments)]
 pub fn velocity_step(
-    model: &Model,
-    mask: &[bool],
-    params: &IntegrationParameters,
-    t: f64,
-    poses: &[Pose],
-    v0: &DVector<f64>,
+    start: &StepStart,
     active: &[&ContactPoint],
     warm: &[Vector3<f64>],
     joints: Option<JointRowsAt>,
 ) -> VelocityStep {
+    let StepStart {
+        model,
+        mask,
+        params,
+        damping: alpha,
+        t,
+        poses,
+        v0,
+    } = *start;
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
-    // the settling phase's damping −α M v acts in every step that starts within it
-    let alpha = model.settle_damping(t);
     let mut f0 = DVector::zeros(ndof);
     model.wrench(t, poses, v0, &mut f0);
     let mut mv = DVector::zeros(ndof);

@@ -1,10 +1,13 @@
-//! The time loop: contact activation, the velocity step, the position update and (for the
-//! projected schemes) the position projection, with per-step diagnostics accumulated over
-//! the run.
+//! The time loop: each step's size (the schedule's phases), contact activation, the
+//! velocity step, the position update and (for the projected schemes) the position
+//! projection, with per-step diagnostics accumulated over the run. The combined scheme's
+//! activation loop is in `activation.rs`, the splitting of a step at an impact in
+//! `impact.rs`.
 
-use super::moreau_jean::{advance_poses, velocity_step, VelocityStep};
+use super::moreau_jean::{advance_poses, velocity_step, StepStart, VelocityStep};
 use super::params::{IntegrationParameters, Scheme};
 use super::projection::{inverse_mass, project, ContactRows, ProjectionOutcome};
+use super::schedule::Schedule;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -26,7 +29,7 @@ pub struct StepReport {
 impl StepReport {
     /// Folds in the report of another part of the same step: the worst of each flag and
     /// residual, the work added.
-    fn absorb(&mut self, part: &StepReport) {
+    pub(super) fn absorb(&mut self, part: &StepReport) {
         self.newton_converged &= part.newton_converged;
         self.newton_iterations += part.newton_iterations;
         self.solver.converged &= part.solver.converged;
@@ -38,32 +41,17 @@ impl StepReport {
     }
 }
 
-/// The report of an impact (a velocity step of length 0, nothing projected).
-fn impact_report(vs: &VelocityStep) -> StepReport {
-    StepReport {
-        active_contacts: vs.impulses.len(),
-        newton_iterations: vs.newton_iterations,
-        newton_converged: vs.newton_converged,
-        solver: vs.solver,
-        active_set_passes: 1,
-        projection: ProjectionOutcome {
-            converged: true,
-            ..ProjectionOutcome::default()
-        },
-    }
-}
-
 /// A step computed from the current state, before it is taken.
-struct Outcome {
-    active: Vec<usize>,
-    vs: VelocityStep,
-    poses: Vec<Pose>,
+pub(super) struct Outcome {
+    pub(super) active: Vec<usize>,
+    pub(super) vs: VelocityStep,
+    pub(super) poses: Vec<Pose>,
     /// The contact points at `poses`, when the scheme evaluated them.
-    points: Option<Vec<ContactPoint>>,
+    pub(super) points: Option<Vec<ContactPoint>>,
     /// Contacts the activation loop added (closing within the step), each with its gap at
     /// the end of the pass before it was added.
-    closing: Vec<(usize, f64)>,
-    report: StepReport,
+    pub(super) closing: Vec<(usize, f64)>,
+    pub(super) report: StepReport,
 }
 
 /// Diagnostics accumulated over a run.
@@ -101,48 +89,50 @@ pub enum SimError {
     Geometry { t: f64, message: String },
 }
 
-/// A guard enters the velocity problem only when the step would carry the journal past it
-/// by more than this fraction of the clearance. A shallower crossing leaves the journal
-/// within a few tenths of c outside its ring, which the projection removes in 2–3
-/// iterations, and an extra contact next to a pressed ring point only makes the friction
-/// problem harder: at μ = 1 on the pendulum, guards at depth 0 added 9 failed steps in
-/// 0.2 s (c = 1 µm, h = 0.1 ms) where depth 0.5 adds none.
-const GUARD_DEPTH: f64 = 0.5;
-
-/// Normal speed (m/s) below which a pressed contact counts as staying closed.
-const SEPARATION_SPEED: f64 = 1e-9;
-
 /// Cloned where a run forks (`probe_run`): each copy then steps on its own.
 #[derive(Clone)]
 pub struct Simulation {
     pub model: Model,
     pub params: IntegrationParameters,
+    /// The run's phases (settling, refinement window): the simulation's own, so that the
+    /// fine branch of an extrapolated window can halve its window's step.
+    pub schedule: Schedule,
     pub state: State,
-    candidates: Vec<Candidate>,
+    pub(super) candidates: Vec<Candidate>,
     /// Per candidate, the ring (2 × joint + side) of a clearance-joint guard
     /// (`ClearanceJoint::is_guard`); `None` for every other contact.
-    guard_ring: Vec<Option<usize>>,
+    pub(super) guard_ring: Vec<Option<usize>>,
     /// Per candidate, whether it loses its friction while the mechanism settles.
-    settle_frictionless: Vec<bool>,
-    mask: Vec<bool>,
-    minv: Vec<Matrix6<f64>>,
-    points: Vec<ContactPoint>,
-    impulses: Vec<Vector3<f64>>,
-    joint_impulses: Vec<f64>,
+    pub(super) settle_frictionless: Vec<bool>,
+    pub(super) mask: Vec<bool>,
+    pub(super) minv: Vec<Matrix6<f64>>,
+    pub(super) points: Vec<ContactPoint>,
+    pub(super) impulses: Vec<Vector3<f64>>,
+    pub(super) joint_impulses: Vec<f64>,
     /// Candidates in the velocity problem of the last step.
-    active: Vec<usize>,
+    pub(super) active: Vec<usize>,
     /// Size of the step being taken, or last taken: `params.h`, or the settle's step.
-    h: f64,
+    pub(super) h: f64,
     /// Time and step count when the step size last changed: t = t0 + (steps − n0) h.
-    t0: f64,
-    n0: u64,
+    pub(super) t0: f64,
+    pub(super) n0: u64,
     /// End of the refinement window (`Model::refine`) once its contact has closed.
-    refine_until: Option<f64>,
+    pub(super) refine_until: Option<f64>,
     pub stats: RunStats,
 }
 
 impl Simulation {
+    /// A simulation without phases (no settling, no refinement window).
     pub fn new(model: Model, params: IntegrationParameters) -> Result<Self, SimError> {
+        Simulation::scheduled(model, params, Schedule::default())
+    }
+
+    /// A simulation with the phases of `schedule`.
+    pub fn scheduled(
+        model: Model,
+        params: IntegrationParameters,
+        schedule: Schedule,
+    ) -> Result<Self, SimError> {
         params
             .validate()
             .map_err(|(f, m)| SimError::Parameters(f, m))?;
@@ -163,7 +153,7 @@ impl Simulation {
             .collect();
         let settle_frictionless = candidates
             .iter()
-            .map(|&c| model.frictionless_while_settling(c))
+            .map(|&c| schedule.frictionless_while_settling(&model, c))
             .collect();
         let mut sim = Simulation {
             guard_ring,
@@ -181,6 +171,7 @@ impl Simulation {
             refine_until: None,
             model,
             params,
+            schedule,
             state,
             stats: RunStats::default(),
         };
@@ -191,7 +182,7 @@ impl Simulation {
     /// Contact points, penetration and joint violations at the current poses; `points`, when
     /// given, are the contact points already evaluated there (the combined scheme's
     /// activation test evaluates them at the end-of-step poses).
-    fn update_geometry(&mut self, points: Option<Vec<ContactPoint>>) {
+    pub(super) fn update_geometry(&mut self, points: Option<Vec<ContactPoint>>) {
         match points {
             Some(points) => self.points = points,
             None => {
@@ -221,7 +212,7 @@ impl Simulation {
         }
     }
 
-    fn is_guard(&self, i: usize) -> bool {
+    pub(super) fn is_guard(&self, i: usize) -> bool {
         self.guard_ring[i].is_some()
     }
 
@@ -259,23 +250,15 @@ impl Simulation {
         self.refine_until
     }
 
-    /// Halves the refinement window's step from the next step on (the fine branch of an
-    /// extrapolated window, `probe_run`).
-    pub fn halve_refine_step(&mut self) {
-        if let Some(r) = self.model.refine.as_mut() {
-            r.step_ratio *= 0.5;
-        }
-    }
-
     /// The step that starts now, and the time it ends at when that is a phase's end: the
     /// settle's step while settling, the refinement window's within it, each phase's last
     /// step shortened or stretched (by at most 1e-9) to end at the phase's end; else h.
-    fn next_step(&self) -> (f64, Option<f64>) {
+    pub(super) fn next_step(&self) -> (f64, Option<f64>) {
         let t = self.state.t;
-        let settle = self.model.settling(t);
+        let settle = self.schedule.settling(t);
         let window = self
             .refine_until
-            .zip(self.model.refine.as_ref())
+            .zip(self.schedule.refine.as_ref())
             .map(|(until, r)| (until, r.step_ratio * self.params.h))
             .filter(|&(until, h)| t < until - 1e-9 * h);
         match settle
@@ -290,13 +273,13 @@ impl Simulation {
 
     /// The integration parameters of the current step (h may be the settle's, and so may
     /// the solver's tolerance).
-    fn step_params(&self) -> IntegrationParameters {
+    pub(super) fn step_params(&self) -> IntegrationParameters {
         let mut p = IntegrationParameters {
             h: self.h,
             ..self.params.clone()
         };
         if let Some(r) = self
-            .model
+            .schedule
             .settling(self.state.t)
             .and_then(|s| s.tolerance_ratio)
         {
@@ -305,7 +288,7 @@ impl Simulation {
         p
     }
 
-    fn velocity(&self, active: &[usize]) -> VelocityStep {
+    pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
         let t_mid = self.state.t + 0.5 * self.h;
         let joints = &self.model.joints;
         let rows_at = |poses: &[Pose]| {
@@ -317,7 +300,7 @@ impl Simulation {
         };
         // while settling, the contacts that lose their friction enter as copies with μ = 0
         let settling: Vec<ContactPoint>;
-        let refs: Vec<&ContactPoint> = if self.model.settling(self.state.t).is_some() {
+        let refs: Vec<&ContactPoint> = if self.schedule.settling(self.state.t).is_some() {
             settling = active
                 .iter()
                 .map(|&i| {
@@ -344,13 +327,18 @@ impl Simulation {
                 }
             })
             .collect();
+        let params = self.step_params();
+        let start = StepStart {
+            model: &self.model,
+            mask: &self.mask,
+            params: &params,
+            damping: self.schedule.settle_damping(self.state.t),
+            t: self.state.t,
+            poses: &self.state.poses,
+            v0: &self.state.v,
+        };
         velocity_step(
-            &self.model,
-            &self.mask,
-            &self.step_params(),
-            self.state.t,
-            &self.state.poses,
-            &self.state.v,
+            &start,
             &refs,
             &warm,
             (!joints.is_empty()).then_some(&rows_at as &dyn Fn(&[Pose]) -> Vec<BilateralRow>),
@@ -359,7 +347,7 @@ impl Simulation {
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
     /// indices) that `which` chooses, given their contact points at those poses.
-    fn project_poses(
+    pub(super) fn project_poses(
         &self,
         poses: &mut [Pose],
         pool: &[usize],
@@ -412,7 +400,7 @@ impl Simulation {
         };
         self.stats.steps += 1;
         // the refinement window opens at the end of the step in which its contact closed
-        if let (None, Some(r)) = (self.refine_until, &self.model.refine) {
+        if let (None, Some(r)) = (self.refine_until, &self.schedule.refine) {
             if r.trigger.iter().any(|&i| self.impulses[i].x > 0.0) {
                 self.refine_until = Some(self.state.t + r.duration);
             }
@@ -431,120 +419,8 @@ impl Simulation {
         Ok(report)
     }
 
-    /// The earliest contact that closes within the step `trial` computed, and the fraction
-    /// of the step at which it closes: its gap interpolated linearly between the step's
-    /// start and the end of the pass that activated it. `None` without one.
-    fn first_impact(&self, trial: &Outcome) -> Option<(usize, f64)> {
-        trial
-            .closing
-            .iter()
-            .filter_map(|&(i, end_gap)| {
-                let g0 = self.points[i].gap();
-                (g0 > 0.0 && end_gap < 0.0).then(|| (i, g0 / (g0 - end_gap)))
-            })
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-    }
-
-    /// The step redone in three parts: up to the impact of contact `i` at fraction `s` of
-    /// the step, the impact itself (a step of length 0: the frictional impact law alone, on
-    /// the contacts that the whole step closed and those touching then), and the rest of
-    /// the step from the post-impact velocity. The θ-rule would otherwise move the bodies over the whole step with the
-    /// mean of the pre- and post-impact velocities, which misplaces them by up to h/2 times
-    /// the velocity jump, whatever h resolves elsewhere. The step's impulses are the sums
-    /// of its parts', so that impulse / h stays the step's mean force.
-    fn split_at_impact(
-        &mut self,
-        i: usize,
-        s: f64,
-        in_step: &[usize],
-        t_end: f64,
-    ) -> Result<StepReport, SimError> {
-        let (h, t_start) = (self.h, self.state.t);
-        let mut impulses = vec![Vector3::zeros(); self.points.len()];
-        let add = |sim: &Simulation, sum: &mut Vec<Vector3<f64>>| {
-            sum.iter_mut().zip(&sim.impulses).for_each(|(a, b)| *a += b);
-        };
-        // The part before ends a hair (1e-6 of it) short of the contact, which it must not
-        // close itself; where the gap's curvature over the step put the estimate past the
-        // contact, the secant on the part just computed corrects it. A part shorter than
-        // 1e-3 h misplaces the bodies by at most 1e-3 h times the jump.
-        let g0 = self.points[i].gap();
-        let mut s = s * (1.0 - 1e-6);
-        let mut tries = 0;
-        let before = loop {
-            s = s.clamp(1e-3, 1.0 - 1e-3);
-            self.h = s * h;
-            let part = self.compute()?;
-            tries += 1;
-            match part.closing.iter().find(|c| c.0 == i) {
-                Some(&(_, end_gap)) if s > 1e-3 && tries < 4 => {
-                    s *= g0 / (g0 - end_gap) * (1.0 - 1e-6)
-                }
-                _ => break part,
-            }
-        };
-        let first = self.commit(before, t_start + s * h);
-        add(self, &mut impulses);
-        let mut joint_impulses = self.joint_impulses.clone();
-        // The impact, at the poses it happens at, on the contacts of the whole step as the
-        // unsplit step had them (`in_step`, with the guards that stop a journal crossing
-        // its clearance), those of the part before, and every one that touches then (a gap
-        // no wider than the impacting contact's, plus the activation margin): the contacts
-        // the step closes take its impact together, as Moreau's law has them, not one after
-        // the other. Contacts that close together (the two rings of a journal swinging in
-        // its plane, a box's corners) and a journal that the blow drives across a tiny
-        // clearance (which an ideal joint takes in the same impulse) need it: taken one
-        // after the other, with e = 0, they lose other momenta.
-        self.h = 0.0;
-        let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
-        let mut member = vec![false; self.points.len()];
-        in_step.iter().for_each(|&k| member[k] = true);
-        self.active
-            .iter()
-            .for_each(|&k| member[k] |= !self.is_guard(k));
-        let active: Vec<usize> = (0..self.points.len())
-            .filter(|&k| {
-                member[k] || k == i || (!self.is_guard(k) && self.points[k].gap() <= margin)
-            })
-            .collect();
-        let vs = self.velocity(&active);
-        if vs.v.iter().any(|x| !x.is_finite()) {
-            return Err(SimError::NonFinite {
-                t: self.state.t,
-                step: self.stats.steps,
-            });
-        }
-        self.impulses.iter_mut().for_each(|x| *x = Vector3::zeros());
-        for (&k, imp) in active.iter().zip(&vs.impulses) {
-            self.impulses[k] = *imp;
-        }
-        add(self, &mut impulses);
-        let impact = impact_report(&vs);
-        self.active = active;
-        self.state.v = vs.v;
-        self.h = (1.0 - s) * h;
-        let after = self.compute()?;
-        let mut report = self.commit(after, t_end);
-        add(self, &mut impulses);
-        self.impulses = impulses;
-        if joint_impulses.len() == self.joint_impulses.len() {
-            let add_rows = |a: &mut Vec<f64>, b: &[f64]| {
-                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-            };
-            add_rows(&mut joint_impulses, &vs.joint_impulses);
-            add_rows(&mut joint_impulses, &self.joint_impulses);
-            self.joint_impulses = joint_impulses;
-        }
-        self.h = h;
-        for part in [&first, &impact] {
-            report.absorb(part);
-        }
-        self.stats.impact_splits += 1;
-        Ok(report)
-    }
-
     /// The step of size `self.h` from the current state, not yet taken.
-    fn compute(&self) -> Result<Outcome, SimError> {
+    pub(super) fn compute(&self) -> Result<Outcome, SimError> {
         let p = self.step_params();
         for j in &self.model.clearance_joints {
             j.check(&self.state.poses)
@@ -607,7 +483,7 @@ impl Simulation {
     }
 
     /// Takes the computed step: the state at time `t`, its impulses and contact points.
-    fn commit(&mut self, outcome: Outcome, t: f64) -> StepReport {
+    pub(super) fn commit(&mut self, outcome: Outcome, t: f64) -> StepReport {
         let Outcome {
             active,
             vs,
@@ -629,108 +505,6 @@ impl Simulation {
         report.newton_converged = vs.newton_converged;
         report.solver = vs.solver;
         report
-    }
-
-    /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
-    /// previous step's active set (kept while pressed or closed; guards are not kept, they
-    /// are chosen afresh each step): the active set, the velocity step, the end-of-step
-    /// poses, the contact points evaluated there, and the contacts that closed.
-    fn combined(&self, mut report: StepReport) -> Outcome {
-        let p = &self.step_params();
-        let mut closing = Vec::new();
-        let mut active: Vec<usize> = self
-            .active
-            .iter()
-            .copied()
-            .filter(|&i| !self.is_guard(i))
-            .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
-            .collect();
-        let (mut last, mut settled) = (None, false);
-        for pass in 1..=p.max_active_set_passes {
-            let vs = self.velocity(&active);
-            let mut in_active = vec![false; self.points.len()];
-            active.iter().for_each(|&i| in_active[i] = true);
-            // A guard whose linearised end-of-step gap g + h u_N,θ is negative marks a step
-            // that carries the journal across its clearance: put the most crossed guard of
-            // each such ring in the velocity problem and solve again (the guards are far from
-            // contact otherwise, so this never happens while h·v stays below the clearance).
-            // One per ring and pass keeps the problem small and its Delassus matrix regular.
-            let mut worst: Vec<(usize, usize, f64)> = Vec::new(); // (ring, candidate, gap)
-            for (i, ring) in self.guard_ring.iter().enumerate() {
-                let Some(ring) = *ring else { continue };
-                if in_active[i] {
-                    continue;
-                }
-                let c = &self.points[i];
-                let u0 = c.local_velocity(self.state.v.as_slice()).x;
-                let u1 = c.local_velocity(vs.v.as_slice()).x;
-                let end_gap = c.gap() + p.h * ((1.0 - p.theta) * u0 + p.theta * u1);
-                if end_gap < -GUARD_DEPTH * self.model.clearance_joints[ring / 2].clearance {
-                    match worst.iter_mut().find(|w| w.0 == ring) {
-                        Some(w) if end_gap < w.2 => *w = (ring, i, end_gap),
-                        Some(_) => {}
-                        None => worst.push((ring, i, end_gap)),
-                    }
-                }
-            }
-            let crossing: Vec<usize> = worst.iter().map(|w| w.1).collect();
-            if !crossing.is_empty() && pass < p.max_active_set_passes {
-                active.extend(crossing);
-                active.sort_unstable();
-                continue;
-            }
-            let mut poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
-            // Project onto g = 0, as equalities, the active contacts that penetrate and those
-            // that stay closed (pressed, not separating: u_N,k+1 ≤ e|u_N,k|/2). A contact that
-            // rebounds (e > 0) and ended with g > 0 is left where it is: pulling it down onto
-            // the surface (as Siconos' combined scheme does with every active contact) throws
-            // away m g·g of energy per impact, 60 % at e = 1 and h = 0.05 on the ball.
-            let mut closed = vec![false; self.points.len()];
-            for (k, &i) in active.iter().enumerate() {
-                let c = &self.points[i];
-                let u0 = c.local_velocity(self.state.v.as_slice()).x;
-                let u1 = c.local_velocity(vs.v.as_slice()).x;
-                closed[i] =
-                    vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
-            }
-            let pool: Vec<usize> = active
-                .iter()
-                .copied()
-                .filter(|&i| self.guard_ring[i].is_none())
-                .collect();
-            let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
-            report.projection =
-                self.project_poses(&mut poses, &pool, &selected, ContactRows::Equality);
-            report.active_set_passes = pass;
-            // activation from the end-of-step position
-            let mut after = Vec::new();
-            self.model
-                .evaluate_selected(&poses, &self.candidates, &mut after);
-            let new: Vec<usize> = (0..after.len())
-                .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
-                .collect();
-            if new.is_empty() {
-                settled = true;
-                last = Some((active, vs, poses, after));
-                break;
-            }
-            closing.extend(new.iter().map(|&i| (i, after[i].gap())));
-            last = Some((active.clone(), vs, poses, after));
-            active.extend(new);
-            active.sort_unstable();
-        }
-        // an active set that did not settle within the allowed passes keeps the last pass,
-        // flagged
-        report.projection.converged &= settled;
-        let (active, vs, poses, after) = last.expect("at least one pass");
-        Outcome {
-            active,
-            vs,
-            poses,
-            points: Some(after),
-            closing,
-            report,
-        }
     }
 
     /// Whether a run to `t_end` is over: `t_end` is nearer than half the next step.

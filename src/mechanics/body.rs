@@ -5,6 +5,12 @@
 use crate::math::compose_body;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector6};
 
+/// A body index, or `None` for the ground (the fixed inertial frame).
+pub type BodyRef = Option<usize>;
+
+/// Twist of a body as (v inertial, Ω body).
+pub type Twist = Vector6<f64>;
+
 /// Position and orientation of a body frame in the inertial frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose {

@@ -3,10 +3,9 @@
 //! inertial frame, torque in the body frame) to the bodies it acts on, and reports its
 //! potential energy where it has one.
 
-use super::body::Pose;
-use super::model::BodyRef;
+use super::body::{BodyRef, Pose, Twist};
 use crate::math::{any_orthogonal, skew};
-use nalgebra::{Matrix3, Vector3, Vector6};
+use nalgebra::{Matrix3, Vector3};
 
 /// A vector that is constant or a piecewise-linear function of time (clamped at both ends).
 #[derive(Clone, Debug, PartialEq)]
@@ -97,9 +96,6 @@ pub enum Force {
     Torsional(TorsionalSpring),
     External(ExternalLoad),
 }
-
-/// Twist of a body as (v inertial, Ω body).
-pub type Twist = Vector6<f64>;
 
 fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
     r.map_or(Pose::identity(), |i| poses[i])
@@ -398,7 +394,7 @@ impl Force {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
-    use nalgebra::UnitQuaternion;
+    use nalgebra::{UnitQuaternion, Vector6};
 
     #[test]
     fn table_profile_interpolates_and_clamps() {

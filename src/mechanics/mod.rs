@@ -6,7 +6,7 @@ pub mod force;
 pub mod joint;
 pub mod model;
 
-pub use body::{Motion, Pose, RigidBody, Shape};
+pub use body::{BodyRef, Motion, Pose, RigidBody, Shape, Twist};
 pub use contact::{ContactGeometry, ContactPair, ContactPoint, Primitive};
 pub use force::{ExternalLoad, Force, PointSpring, Profile, TorsionalSpring};
-pub use model::{BodyRef, Model, Refine, Settle};
+pub use model::Model;

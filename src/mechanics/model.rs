@@ -2,10 +2,10 @@
 //! simulation; the evolving state lives in [`State`], so that one model can be run many
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
-use super::body::{Motion, Pose, RigidBody};
+use super::body::{Motion, Pose, RigidBody, Twist};
 use super::contact::clearance::ClearanceJoint;
 use super::contact::{ContactPair, ContactPoint};
-use super::force::{Force, Twist};
+use super::force::Force;
 use super::joint::Joint;
 use nalgebra::{DVector, Vector3};
 
@@ -17,9 +17,6 @@ pub enum Candidate {
     Clearance { joint: usize, point: usize },
 }
 
-/// A body index, or `None` for the ground (the fixed inertial frame).
-pub type BodyRef = Option<usize>;
-
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Model {
     pub bodies: Vec<RigidBody>,
@@ -29,59 +26,6 @@ pub struct Model {
     pub joints: Vec<Joint>,
     /// Revolute joints with clearance: sets of unilateral contacts.
     pub clearance_joints: Vec<ClearanceJoint>,
-    /// The settling phase of a preloaded mechanism, if the scene has one.
-    pub settle: Option<Settle>,
-    /// A window of finer steps that a contact's first closing opens, if the scene has one.
-    pub refine: Option<Refine>,
-}
-
-/// A window of finer steps (`refine:` in the scene): from the end of the step in which one
-/// of the `trigger` candidates first carries an impulse, for `duration`, the step is
-/// `step_ratio` times h (the last one ending at the window's end). A mechanism's trip, a
-/// burst of blows and sliding under turning loads, needs a finer step than the approach
-/// before it and the swing after it, and it starts at a contact event whose time changes
-/// from sample to sample.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Refine {
-    /// The contact candidates (one pair or clearance joint) whose closing opens the window.
-    pub trigger: Vec<usize>,
-    /// Length of the window (s).
-    pub duration: f64,
-    /// The window's step over the integrator's h: a ratio, so that a fidelity that changes
-    /// h refines the window with it.
-    pub step_ratio: f64,
-    /// Whether runs with probes take the window twice, at its step and at half of it, and
-    /// report each probe as 2 f(h/2) − f(h) (`probe_run`): Richardson extrapolation, which
-    /// removes the first-order error that the window's sliding contacts leave.
-    pub extrapolate: bool,
-}
-
-/// A settling phase (`settle:` in the scene): until `until` every moving body is damped in
-/// proportion to its mass, F = −α M v, and friction may be withdrawn from some contacts. A
-/// preloaded mechanism that starts from its nominal assembly then comes to rest in the
-/// equilibrium its clearances give. Without friction that equilibrium is unique; a
-/// frictional one is any state inside the friction cones, so where the chain stops depends
-/// on the path it settled along, and that path (impacts, bounces, stick–slip) changes with
-/// the step size.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Settle {
-    /// End of the phase (s).
-    pub until: f64,
-    /// α (1/s).
-    pub damping: f64,
-    /// The contact pairs and clearance joints that keep their friction during the phase
-    /// (by name); `None`: all of them.
-    pub friction: Option<Vec<String>>,
-    /// The settle's step over the integrator's h (`None`: the same step). A ratio, so that
-    /// a fidelity that changes h (a study's `fidelity`, the `converge` ladder) refines the
-    /// settle with it. A damped approach to rest needs a coarser step than the dynamics
-    /// after it.
-    pub step_ratio: Option<f64>,
-    /// The contact solver's tolerance while settling over the integrator's (`None`: the
-    /// same), a ratio for the same reason. Where the frictionless rest leaves the load
-    /// split between a journal's two rings to the solver, a loose tolerance can end the
-    /// settle elsewhere, and the trip with it.
-    pub tolerance_ratio: Option<f64>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
@@ -133,24 +77,6 @@ impl Model {
         self.bodies.iter().flat_map(|b| b.dof_mask()).collect()
     }
 
-    /// The settling phase, if the step that starts at `t` is in it.
-    pub fn settling(&self, t: f64) -> Option<&Settle> {
-        self.settle.as_ref().filter(|s| t < s.until)
-    }
-
-    /// The settling phase's damping rate α in the step that starts at `t` (0 outside it).
-    pub fn settle_damping(&self, t: f64) -> f64 {
-        self.settling(t).map_or(0.0, |s| s.damping)
-    }
-
-    /// Whether the candidate loses its friction during the settling phase.
-    pub fn frictionless_while_settling(&self, c: Candidate) -> bool {
-        self.settle
-            .as_ref()
-            .and_then(|s| s.friction.as_ref())
-            .is_some_and(|keep| !keep.iter().any(|n| *n == self.candidate_owner(c)))
-    }
-
     /// The name of the contact pair, joint or clearance joint a candidate belongs to.
     pub fn candidate_owner(&self, c: Candidate) -> &str {
         match c {
@@ -174,7 +100,7 @@ impl Model {
 
     /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ and the force elements.
     /// Entries of held degrees of freedom are zero. (The settling damping is the step's:
-    /// `velocity_step` adds it.)
+    /// the integrator adds it.)
     pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
         out.fill(0.0);
         for (i, b) in self.bodies.iter().enumerate() {

@@ -2,20 +2,28 @@
 //! integrator settings, duration, recording), parsed with line numbers and validated into a
 //! [`Model`](crate::mechanics::Model) and [`IntegrationParameters`].
 
+mod bodies;
 mod build;
+mod clearance;
 pub(crate) mod error;
+mod fields;
+mod forces;
 pub mod function;
+mod integrator;
+mod joints;
 mod parameter;
+mod phases;
 mod probes;
 pub mod schema;
+mod shapes;
 pub mod units;
 
-pub use build::apply_integrator;
 pub use error::SceneError;
 pub use function::FunctionScene;
+pub use integrator::apply_integrator;
 pub use schema::{IntegratorSpec, SceneSpec};
 
-use crate::integrator::IntegrationParameters;
+use crate::integrator::{IntegrationParameters, Schedule, SimError, Simulation};
 use crate::mechanics::Model;
 use std::path::Path;
 
@@ -25,6 +33,8 @@ pub struct Scene {
     pub name: String,
     pub model: Model,
     pub params: IntegrationParameters,
+    /// The run's phases (settling, refinement window).
+    pub schedule: Schedule,
     /// Simulated time span (s).
     pub duration: f64,
     /// Record every n-th step in trajectories.
@@ -39,6 +49,15 @@ impl Scene {
         let spec: SceneSpec =
             serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
         build::build(&spec).map_err(|e| e.in_file(file))
+    }
+
+    /// A simulation of the scene from its initial state, with its phases.
+    pub fn simulation(&self) -> Result<Simulation, SimError> {
+        Simulation::scheduled(
+            self.model.clone(),
+            self.params.clone(),
+            self.schedule.clone(),
+        )
     }
 
     pub fn load(path: &Path) -> Result<Scene, SceneError> {

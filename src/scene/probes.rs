@@ -1,8 +1,8 @@
 //! Validation of the scene's `probes` into [`Probe`]s: names resolved to contact candidates,
 //! bodies and other probes, every error with its field and line.
 
-use super::build::{body_ref, count, opt_vec3, scalar, unit_vec3};
 use super::error::{line, SceneError};
+use super::fields::{body_ref, count, opt_vec3, scalar, unit_vec3};
 use super::schema::{EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
 use super::units::Dim;
 use crate::mechanics::model::Candidate;

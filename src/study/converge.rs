@@ -190,7 +190,7 @@ impl Ladder {
     /// the scene has a refinement window, its extrapolation the other way from the scene.
     pub fn around_scene(scene: &crate::scene::Scene, samples: u64) -> Ladder {
         let mut ladder = Ladder::around(&scene.params, samples);
-        if let Some(r) = &scene.model.refine {
+        if let Some(r) = &scene.schedule.refine {
             ladder.fidelities.push(Fidelity {
                 extrapolate: Some(!r.extrapolate),
                 ..Fidelity::of(&scene.params)
@@ -248,7 +248,7 @@ pub fn sweep(
     for f in &fidelities {
         let mut s = (**scene).clone();
         f.apply(&mut s.params);
-        if let (Some(x), Some(r)) = (f.extrapolate, s.model.refine.as_mut()) {
+        if let (Some(x), Some(r)) = (f.extrapolate, s.schedule.refine.as_mut()) {
             r.extrapolate = x;
         }
         let subject = Subject::Mechanism(Box::new(s));

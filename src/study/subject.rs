@@ -1,7 +1,6 @@
 //! What a study samples: a mechanism scene (simulated, outputs from its probes) or an
 //! analytic function scene. One sample = set the parameters, run, read the outputs.
 
-use crate::integrator::Simulation;
 use crate::probe_run::run_probes;
 use crate::scene::units::Dim;
 use crate::scene::{FunctionScene, Scene, SceneError};
@@ -133,7 +132,7 @@ impl Subject {
                         return (Vec::new(), Diagnostics::default(), Some(e));
                     }
                 }
-                let sim = match Simulation::new(scene.model, scene.params) {
+                let sim = match scene.simulation() {
                     Ok(s) => s,
                     Err(e) => return (Vec::new(), Diagnostics::default(), Some(e.to_string())),
                 };

@@ -15,7 +15,7 @@ pub fn bundled(name: &str) -> Scene {
 }
 
 pub fn simulation(scene: Scene) -> Simulation {
-    Simulation::new(scene.model, scene.params).expect("valid parameters")
+    scene.simulation().expect("valid parameters")
 }
 
 /// Least-squares slope of log(err) against log(h).

@@ -15,8 +15,8 @@
 
 use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
+use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::Pose;
-use crate::mechanics::model::BodyRef;
 use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]

@@ -8,8 +8,8 @@ pub mod primitives;
 
 pub use primitives::{ContactGeometry, Primitive};
 
+use super::body::BodyRef;
 use super::body::Pose;
-use super::model::BodyRef;
 use crate::math::{skew, tangent_basis};
 use nalgebra::{Matrix3, Matrix3x6, RowVector6, Vector3};
 

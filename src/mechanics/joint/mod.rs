@@ -11,9 +11,9 @@ mod profile;
 pub use profile::ScalarProfile;
 
 use crate::math::{any_orthogonal, skew};
+use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::Pose;
 use crate::mechanics::contact::{ContactGeometry, ContactPoint};
-use crate::mechanics::model::BodyRef;
 use nalgebra::{Matrix3, Matrix3x6};
 use nalgebra::{RowVector6, Vector3};
 

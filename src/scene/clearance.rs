@@ -1,0 +1,121 @@
+//! The revolute joint with clearance: bore on `body_a`, journal and flanges on `body_b`,
+//! placed from a world anchor and axis or from body-frame ones.
+
+use super::error::{line, SceneError};
+use super::fields::{count, non_negative, positive, restitution, unit_vec3, vec3, R};
+use super::joints::joint_bodies;
+use super::schema::{JointSpec, Vector, Q};
+use super::units::Dim;
+use crate::mechanics::contact::clearance::ClearanceJoint;
+use crate::mechanics::{BodyRef, Model};
+
+pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<ClearanceJoint> {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    let required = |q: &Option<Q>, name: &str, dim: Dim| -> R<f64> {
+        let q = q.as_ref().ok_or_else(|| {
+            SceneError::at(
+                line(&spec.name),
+                f(name),
+                "is required for a revolute-clearance joint",
+            )
+        })?;
+        positive(q, dim, &f(name))
+    };
+    let (a, b) = joint_bodies(model, spec, i)?;
+    if spec.drive.is_some() || spec.limits.is_some() {
+        return Err(SceneError::at(line(&spec.name), f("drive"), "a revolute-clearance joint has no drive or limits (drive the bodies with an ideal joint)"));
+    }
+    let journal_radius = required(&spec.journal_radius, "journal_radius", Dim::LENGTH)?;
+    let rim = spec
+        .rim_points
+        .as_ref()
+        .map_or(Ok(4), |q| count(q, &f("rim_points")))?;
+    if rim < 3 {
+        return Err(SceneError::at(
+            spec.rim_points.as_ref().and_then(line),
+            f("rim_points"),
+            "needs at least 3 points per flange",
+        ));
+    }
+    let e = restitution(&spec.e, &f("e"))?;
+    let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
+    let (bore_center, bore_axis, journal_point, journal_axis) =
+        if spec.anchor.is_some() || spec.axis.is_some() {
+            let anchor = spec.anchor.as_ref().ok_or_else(|| {
+                SceneError::at(
+                    line(&spec.name),
+                    f("anchor"),
+                    "is required (bore centre, world, at assembly)",
+                )
+            })?;
+            let anchor = vec3(anchor, Dim::LENGTH, &f("anchor"))?;
+            let axis = spec.axis.as_ref().ok_or_else(|| {
+                SceneError::at(
+                    line(&spec.name),
+                    f("axis"),
+                    "is required for a revolute-clearance joint",
+                )
+            })?;
+            let axis = unit_vec3(axis, &f("axis"))?;
+            let (pa, pb) = (pose(a), pose(b));
+            (
+                pa.p.inverse_transform_vector(&(anchor - pa.x)),
+                pa.p.inverse_transform_vector(&axis),
+                pb.p.inverse_transform_vector(&(anchor - pb.x)),
+                pb.p.inverse_transform_vector(&axis),
+            )
+        } else {
+            fn need(v: &Option<Vector>, field: String, l: Option<u64>) -> R<&Vector> {
+                v.as_ref().ok_or_else(|| {
+                    SceneError::at(
+                        l,
+                        field,
+                        "is required (or give anchor and axis in world coordinates)",
+                    )
+                })
+            }
+            let l = line(&spec.name);
+            (
+                vec3(
+                    need(&spec.anchor_a, f("anchor_a"), l)?,
+                    Dim::LENGTH,
+                    &f("anchor_a"),
+                )?,
+                unit_vec3(need(&spec.axis_a, f("axis_a"), l)?, &f("axis_a"))?,
+                vec3(
+                    need(&spec.anchor_b, f("anchor_b"), l)?,
+                    Dim::LENGTH,
+                    &f("anchor_b"),
+                )?,
+                unit_vec3(need(&spec.axis_b, f("axis_b"), l)?, &f("axis_b"))?,
+            )
+        };
+    Ok(ClearanceJoint {
+        name: spec.name.value.clone(),
+        bore_body: a,
+        journal_body: b,
+        bore_center,
+        bore_axis,
+        bore_length: required(&spec.bore_length, "bore_length", Dim::LENGTH)?,
+        journal_point,
+        journal_axis,
+        journal_radius,
+        clearance: required(&spec.clearance, "clearance", Dim::LENGTH)?,
+        axial_play: spec
+            .axial_play
+            .as_ref()
+            .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
+        flange_radius: spec
+            .flange_radius
+            .as_ref()
+            .map_or(Ok(1.5 * journal_radius), |q| {
+                positive(q, Dim::LENGTH, &f("flange_radius"))
+            })?,
+        rim_points: rim,
+        mu: spec
+            .mu
+            .as_ref()
+            .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
+        e,
+    })
+}

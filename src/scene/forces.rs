@@ -1,0 +1,158 @@
+//! Force elements: point springs and dampers, torsional springs, and prescribed loads
+//! (constant or tabulated in time).
+
+use super::error::{line, SceneError};
+use super::fields::{body_ref, non_negative, opt_vec3, scalar, unit_vec3, vec3, R};
+use super::schema::{ForceSpec, Vector, Q};
+use super::units::{Dim, Quantity};
+use crate::mechanics::force::{ExternalLoad, Frame, PointSpring, TorsionalSpring};
+use crate::mechanics::{BodyRef, Force, Model, Profile};
+use nalgebra::Vector3;
+use serde_saphyr::Spanned;
+
+/// An optional preload ramp time (≥ 0; default 0, no ramp).
+fn ramp(q: &Option<Q>, field: &str) -> R<f64> {
+    q.as_ref()
+        .map_or(Ok(0.0), |q| non_negative(q, Dim::TIME, field))
+}
+
+fn table(t: &Spanned<Vec<Vec<Quantity>>>, dim: Dim, field: &str) -> R<Profile> {
+    let mut rows = Vec::new();
+    for (k, row) in t.value.iter().enumerate() {
+        if row.len() != 4 {
+            return Err(SceneError::at(
+                line(t),
+                format!("{field}[{k}]"),
+                "rows are [t, x, y, z]",
+            ));
+        }
+        let err = |m: String| SceneError::at(line(t), format!("{field}[{k}]"), m);
+        let time = row[0].value(Dim::TIME).map_err(err)?;
+        let v = Vector3::new(
+            row[1].value(dim).map_err(err)?,
+            row[2].value(dim).map_err(err)?,
+            row[3].value(dim).map_err(err)?,
+        );
+        if let Some((prev, _)) = rows.last() {
+            if time <= *prev {
+                return Err(SceneError::at(
+                    line(t),
+                    format!("{field}[{k}]"),
+                    "times must increase strictly",
+                ));
+            }
+        }
+        rows.push((time, v));
+    }
+    if rows.is_empty() {
+        return Err(SceneError::at(line(t), field, "needs at least one row"));
+    }
+    Ok(Profile::Table(rows))
+}
+
+fn profile(
+    constant: &Option<Vector>,
+    tab: &Option<Spanned<Vec<Vec<Quantity>>>>,
+    dim: Dim,
+    field: &str,
+) -> R<Option<Profile>> {
+    match (constant, tab) {
+        (Some(c), None) => Ok(Some(Profile::Constant(vec3(c, dim, field)?))),
+        (None, Some(t)) => Ok(Some(table(t, dim, &format!("{field}_table"))?)),
+        (None, None) => Ok(None),
+        (Some(c), Some(_)) => Err(SceneError::at(
+            line(c),
+            field,
+            format!("give `{field}` or `{field}_table`, not both"),
+        )),
+    }
+}
+
+pub(super) fn force(model: &Model, spec: &ForceSpec, i: usize) -> R<Force> {
+    let f = |s: &str| format!("forces[{i}].{s}");
+    let opt = |q: &Option<Q>, dim: Dim, name: &str| -> R<f64> {
+        q.as_ref().map_or(Ok(0.0), |q| scalar(q, dim, &f(name)))
+    };
+    Ok(match spec {
+        ForceSpec::Spring(s) => {
+            let a = body_ref(model, &s.body_a, &f("spring.body_a"))?;
+            let b = body_ref(model, &s.body_b, &f("spring.body_b"))?;
+            let point_a = opt_vec3(&s.point_a, Dim::LENGTH, &f("spring.point_a"))?;
+            let point_b = opt_vec3(&s.point_b, Dim::LENGTH, &f("spring.point_b"))?;
+            let pose =
+                |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
+            let initial = (pose(b).point(&point_b) - pose(a).point(&point_a)).norm();
+            let damping = s.damping.as_ref().map_or(Ok(0.0), |q| {
+                non_negative(q, Dim::DAMPING, &f("spring.damping"))
+            })?;
+            Force::Spring(PointSpring {
+                a,
+                point_a,
+                b,
+                point_b,
+                stiffness: non_negative(&s.stiffness, Dim::STIFFNESS, &f("spring.stiffness"))?,
+                damping,
+                rest_length: s.rest_length.as_ref().map_or(Ok(initial), |q| {
+                    non_negative(q, Dim::LENGTH, &f("spring.rest_length"))
+                })?,
+                preload: opt(&s.preload, Dim::FORCE, "spring.preload")?,
+                ramp: ramp(&s.ramp, &f("spring.ramp"))?,
+            })
+        }
+        ForceSpec::TorsionalSpring(s) => {
+            let a = body_ref(model, &s.body_a, &f("torsional_spring.body_a"))?;
+            let b = body_ref(model, &s.body_b, &f("torsional_spring.body_b"))?;
+            let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
+            let mut spring = TorsionalSpring::new(
+                a,
+                b,
+                unit_vec3(&s.axis, &f("torsional_spring.axis"))?,
+                &poses,
+                non_negative(&s.stiffness, Dim::TORQUE, &f("torsional_spring.stiffness"))?,
+                s.damping.as_ref().map_or(Ok(0.0), |q| {
+                    non_negative(q, Dim::ROTATIONAL_DAMPING, &f("torsional_spring.damping"))
+                })?,
+                opt(&s.preload, Dim::TORQUE, "torsional_spring.preload")?,
+                opt(&s.rest_angle, Dim::NONE, "torsional_spring.rest_angle")?,
+            );
+            spring.ramp = ramp(&s.ramp, &f("torsional_spring.ramp"))?;
+            Force::Torsional(spring)
+        }
+        ForceSpec::Load(l) => {
+            let body = body_ref(model, &l.body, &f("load.body"))?.ok_or_else(|| {
+                SceneError::at(
+                    line(&l.body),
+                    f("load.body"),
+                    "a load acts on a body, not on the ground",
+                )
+            })?;
+            let frame = match l.frame.as_ref().map(|s| s.value.as_str()) {
+                None | Some("world") => Frame::World,
+                Some("body") => Frame::Body,
+                Some(o) => {
+                    return Err(SceneError::at(
+                        l.frame.as_ref().and_then(line),
+                        f("load.frame"),
+                        format!("unknown frame `{o}` (world or body)"),
+                    ))
+                }
+            };
+            let force = profile(&l.force, &l.force_table, Dim::FORCE, &f("load.force"))?;
+            let torque = profile(&l.torque, &l.torque_table, Dim::TORQUE, &f("load.torque"))?;
+            if force.is_none() && torque.is_none() {
+                return Err(SceneError::at(
+                    line(&l.body),
+                    f("load"),
+                    "needs a force or a torque",
+                ));
+            }
+            Force::External(ExternalLoad {
+                body,
+                point: opt_vec3(&l.point, Dim::LENGTH, &f("load.point"))?,
+                force,
+                torque,
+                frame,
+            })
+        }
+    })
+}
