@@ -17,6 +17,7 @@ pub mod probe;
 pub mod probe_run;
 pub mod report;
 pub mod scene;
+pub mod simulate;
 pub mod solver;
 pub mod study;
 pub mod trajectory;

@@ -1,28 +1,27 @@
-//! The `mc-study` command line: subcommands only, no logic.
+//! The `mc-study` command line: the commands and their options (clap), each dispatched to
+//! the library, which does the work and formats what is printed.
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
-use mc_study::drawing::{self, Snapshot, View};
-use mc_study::integrator::Simulation;
-use mc_study::probe_run::{run_probes, Branch};
-use mc_study::scene::units::Dim;
 use mc_study::scene::Scene;
-use mc_study::study::converge::{sweep, Fidelity, Ladder};
+use mc_study::simulate::{simulate, DrawingRequest, SimulateOptions};
+use mc_study::study::converge::{sigma_of, sweep, Fidelity, Ladder};
 use mc_study::study::manifest::Manifest;
 use mc_study::study::merge::{merge, status};
 use mc_study::study::runner::{self, RunOptions, Shard};
 use mc_study::study::slurm::{sbatch, write_scripts, SlurmOptions};
+use mc_study::study::subject::Subject;
+use mc_study::study::summary::Summary;
 use mc_study::study::Study;
-use mc_study::trajectory::Trajectory;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
-use std::time::Instant;
 
 #[derive(Parser)]
 #[command(
     name = "mc-study",
     version,
-    about = "Monte-Carlo tolerance studies of mechanisms with clearances on an exact nonsmooth (Moreau–Jean) integrator"
+    about = "Monte-Carlo tolerance studies of mechanisms with clearances on an exact nonsmooth (Moreau–Jean) integrator",
+    after_help = "Paths written in a study or scene file are relative to that file; paths given on the command line are relative to the working directory.\nGuides: README.md and docs/ in the source tree."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -31,8 +30,6 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Runs one simulation of a scene: writes the trajectory and prints diagnostics
-    /// (steps, max penetration, solver failures, wall time).
     /// Runs a Monte-Carlo study: samples the study's parameters, simulates every sample in
     /// parallel and stores one row per sample in OUT/parts/*.parquet. Rerunning the same
     /// command resumes (completed samples are skipped); a complete unsharded run merges into
@@ -44,7 +41,7 @@ enum Command {
         /// Number of samples N (overrides `samples`; for `saltelli` the base rows).
         #[arg(long)]
         samples: Option<u64>,
-        /// Output directory (overrides `output`; default results/<study name>).
+        /// Output directory (overrides the study's `output`; default results/<study name>).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Worker threads (default: all cores).
@@ -69,6 +66,7 @@ enum Command {
     /// Merges the part files of OUT into OUT/results.parquet (sorted by sample_id), writes
     /// OUT/summary.json and prints the summary. Refuses when samples are missing.
     Merge {
+        /// Result directory of a study (the `--out` of `run`).
         out: PathBuf,
         /// Merge even if samples are missing (the summary then covers those present).
         #[arg(long)]
@@ -79,12 +77,12 @@ enum Command {
     /// × 100 and ÷ 100; projection tolerance × 100; θ = 1; impacts located or not, the
     /// other way from the scene (combined projection only); the other schemes; the `fast`
     /// and `accurate` presets; the refinement window extrapolated or not, the other way
-    /// from the scene, if it has one) against a reference at h₀/10. Errors are in units of each
-    /// output's Monte-Carlo σ when a result directory with summary.json is found
-    /// (`--results`, default the study's output directory), else relative. Prints the
-    /// table, writes OUT/converge.csv and the work–precision plot OUT/work-precision.svg
-    /// (and .png), and recommends the cheapest fidelity under the target as a `fidelity`
-    /// block.
+    /// from the scene, if it has one) against a reference at h₀/10, every run in parallel.
+    /// Errors are in units of each output's Monte-Carlo σ when a result directory with
+    /// summary.json is found (`--results`, default the study's output directory), else
+    /// relative. Prints the table, writes converge.csv and the work–precision plot
+    /// work-precision.svg (and .png), and recommends the cheapest fidelity under the target
+    /// as a `fidelity` block.
     Converge {
         /// Study YAML file.
         study: PathBuf,
@@ -104,16 +102,23 @@ enum Command {
         /// Step sizes to try instead of the default ladder, e.g. `1e-4,5e-5,2e-5`.
         #[arg(long, value_delimiter = ',')]
         h: Vec<f64>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Writes OUT/report/report.html: one self-contained page (figures inlined as SVG, no
     /// network) with the summary, histograms with the fitted normal and ±3σ, empirical
     /// CDFs, scatter plots against every input, SRC/SRRC (and Sobol' indices with
     /// bootstrap intervals for `design: saltelli`), running statistics and run health;
     /// each figure also as SVG and PNG in OUT/report/figures/.
-    Report { out: PathBuf },
+    Report {
+        /// Result directory of a study (merged or not).
+        out: PathBuf,
+    },
     /// Tells which shards of OUT are complete, partial or missing, with failures, and the
     /// `--array=` list to resubmit.
     Status {
+        /// Result directory of a study.
         out: PathBuf,
         /// Shard count to report on (default: that of the latest run).
         #[arg(long)]
@@ -158,6 +163,9 @@ enum Command {
         #[arg(long)]
         submit: bool,
     },
+    /// Runs one simulation of a scene and prints its diagnostics (steps, penetration,
+    /// solver and Newton failures, work and wall time per step) and its probes; on request
+    /// writes the trajectory and draws the mechanism.
     Simulate {
         /// Scene YAML file (see studies/*/scene.yaml).
         scene: PathBuf,
@@ -186,74 +194,6 @@ enum Command {
     },
 }
 
-/// Applies `--set PATH=VALUE` overrides: the value is SI or carries a unit of the
-/// parameter's dimension.
-fn apply_overrides(scene: &mut Scene, sets: &[String]) -> Result<()> {
-    for s in sets {
-        let Some((path, value)) = s.split_once('=') else {
-            bail!("--set {s}: expected PATH=VALUE, e.g. joints.J3.clearance=0.1mm");
-        };
-        let path = path.trim();
-        let dim = scene
-            .parameter_dim(path)
-            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
-        let q = mc_study::scene::units::parse_quantity(value)
-            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
-        if let Some(d) = q.dim.filter(|d| *d != dim) {
-            bail!(
-                "--set {s}: `{path}` is {}, but the value's unit is {}",
-                dim.describe(),
-                d.describe()
-            );
-        }
-        scene
-            .set_parameter(path, q.si)
-            .map_err(|e| anyhow::anyhow!("--set {s}: {e}"))?;
-    }
-    Ok(())
-}
-
-/// What `simulate` draws: an SVG file, its snapshot times (s) and the view.
-struct DrawingRequest {
-    path: PathBuf,
-    times: Vec<f64>,
-    view: View,
-}
-
-fn drawing_request(
-    svg: Option<&PathBuf>,
-    snapshots: &[String],
-    view: &str,
-    duration: f64,
-) -> Result<Option<DrawingRequest>> {
-    let Some(path) = svg else {
-        if !snapshots.is_empty() {
-            bail!("--snapshots needs --svg FILE");
-        }
-        return Ok(None);
-    };
-    let view = View::parse(view)
-        .ok_or_else(|| anyhow::anyhow!("--view must be xy, xz or yz, got `{view}`"))?;
-    let mut times = Vec::new();
-    for s in snapshots {
-        let q = mc_study::scene::units::parse_quantity(s)
-            .map_err(|e| anyhow::anyhow!("--snapshots {s}: {e}"))?;
-        if q.dim.is_some_and(|d| d != Dim::TIME) || !(0.0..=duration).contains(&q.si) {
-            bail!("--snapshots {s}: expected a time between 0 and the duration ({duration} s)");
-        }
-        times.push(q.si);
-    }
-    if times.is_empty() {
-        times = vec![0.0, duration];
-    }
-    times.sort_by(f64::total_cmp);
-    Ok(Some(DrawingRequest {
-        path: path.clone(),
-        times,
-        view,
-    }))
-}
-
 struct SimulateArgs<'a> {
     scene: &'a Path,
     out: Option<&'a PathBuf>,
@@ -264,226 +204,98 @@ struct SimulateArgs<'a> {
     view: &'a str,
 }
 
-fn simulate(args: SimulateArgs) -> Result<()> {
-    let SimulateArgs {
-        scene: scene_path,
-        out,
-        duration,
-        sets,
-        ..
-    } = args;
-    let mut scene = Scene::load(scene_path)?;
-    apply_overrides(&mut scene, sets)?;
-    let format = match out.and_then(|p| p.extension()).and_then(|e| e.to_str()) {
-        None if out.is_none() => None,
-        Some("csv") => Some("csv"),
-        Some("parquet") => Some("parquet"),
-        _ => bail!("--out must end in .csv or .parquet"),
-    };
-    let duration = match duration {
+fn run_simulate(args: SimulateArgs) -> Result<()> {
+    let mut scene = Scene::load(args.scene)?;
+    for s in args.sets {
+        scene
+            .apply_setting(s)
+            .map_err(|e| anyhow::anyhow!("--set {e}"))?;
+    }
+    if let Some(p) = args.out {
+        let ext = p.extension().and_then(|e| e.to_str());
+        if !matches!(ext, Some("csv" | "parquet")) {
+            bail!("--out must end in .csv or .parquet");
+        }
+    }
+    let duration = match args.duration {
         Some(d) if !(d > 0.0 && d.is_finite()) => {
             bail!("--duration must be a positive number of seconds, got {d}")
         }
         Some(d) => d,
         None => scene.duration,
     };
-    let drawing = drawing_request(args.svg, args.snapshots, args.view, duration)?;
-    let every = scene.record_every;
-    let model = scene.model.clone();
-    let mut snapshots: Vec<Snapshot> = Vec::new();
-    let sim = scene.simulation()?;
-    let h = sim.params.h;
-    let mut take_snapshots = |s: &Simulation| {
-        if let Some(d) = &drawing {
-            while let Some(&t) = d.times.get(snapshots.len()) {
-                if s.state.t < t - 0.5 * h {
-                    break;
-                }
-                snapshots.push(Snapshot {
-                    t: s.state.t,
-                    poses: s.state.poses.clone(),
-                });
-            }
-        }
+    let drawing = match args.svg {
+        Some(svg) => Some(
+            DrawingRequest::parse(svg.clone(), args.snapshots, args.view, duration)
+                .map_err(anyhow::Error::msg)?,
+        ),
+        None if !args.snapshots.is_empty() => bail!("--snapshots needs --svg FILE"),
+        None => None,
     };
-    take_snapshots(&sim);
-    let mut traj = Trajectory::for_simulation(&sim);
-    traj.record(&sim);
-    let start = Instant::now();
-    // per-step work, summed over both branches of an extrapolated window: Newton
-    // iterations, solver sweeps (last Newton iteration), activation passes and active
-    // contacts; the trajectory and the drawing follow the main (fine) branch
-    let mut work = [0u64; 4];
-    let run = run_probes(sim, &scene.probes, duration, false, |s, r, branch| {
-        if branch == Branch::Main {
-            if format.is_some() && s.stats.steps % every as u64 == 0 {
-                traj.record(s);
-            }
-            take_snapshots(s);
-        }
-        work[0] += r.newton_iterations as u64;
-        work[1] += r.solver.iterations as u64;
-        work[2] += r.active_set_passes as u64;
-        work[3] += r.active_contacts as u64;
-    });
-    let wall = start.elapsed();
-    let (sim, st) = (&run.sim, run.stats);
-    println!("scene            {} ({})", scene.name, scene_path.display());
-    let settle_h = sim.schedule.settle.as_ref().and_then(|s| s.step_ratio);
-    println!(
-        "scheme           {} h = {:e} s{}, θ = {}",
-        sim.params.scheme.name(),
-        sim.params.h,
-        settle_h.map_or(String::new(), |r| format!(
-            " (settling: {:e} s)",
-            r * sim.params.h
-        )),
-        sim.params.theta
-    );
-    println!("steps            {} to t = {:.6} s", st.steps, sim.state.t);
-    if let (Some(t), Some(r)) = (run.forked_at, &sim.schedule.refine) {
-        println!(
-            "extrapolated     from t = {t:.6} s the refinement window was run at h = {:e} s and {:e} s (the trajectory); probes = 2 f(fine) − f(coarse)",
-            2.0 * r.step_ratio * sim.params.h,
-            r.step_ratio * sim.params.h
-        );
+    let options = SimulateOptions {
+        duration: Some(duration),
+        trajectory: args.out.cloned(),
+        drawing,
+    };
+    let report = simulate(&scene, &args.scene.display().to_string(), &options)?;
+    print!("{report}");
+    if let Some(e) = &report.error {
+        bail!("{e}");
     }
-    println!("max penetration  {:.3e} m", st.max_penetration);
-    println!("max active       {} contacts", st.max_active_contacts);
-    if !sim.model.joints.is_empty() {
-        println!(
-            "joint violation  {:.3e} m, {:.3e} rad (max at step ends)",
-            st.max_joint_violation, st.max_joint_angle_violation
-        );
-    }
-    if sim.params.scheme != mc_study::integrator::Scheme::MoreauJean {
-        println!(
-            "projection       max {} iterations, max {} active-set passes, {} failures",
-            st.max_projection_iterations, st.max_active_set_passes, st.projection_failures
-        );
-    }
-    println!(
-        "solver failures  {} steps (max residual {:.2e})",
-        st.solver_failures, st.max_solver_residual
-    );
-    println!("newton failures  {} steps", st.newton_failures);
-    if sim.params.locate_impacts {
-        println!("impacts located  {} steps split", st.impact_splits);
-    }
-    let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
-    println!(
-        "work per step    {:.2} Newton iterations, {:.1} solver sweeps, {:.2} activation passes, {:.1} active contacts (means)",
-        per_step(work[0]),
-        per_step(work[1]),
-        per_step(work[2]),
-        per_step(work[3])
-    );
-    println!(
-        "wall time        {:.3} s ({:.3} µs/step)",
-        wall.as_secs_f64(),
-        wall.as_secs_f64() * 1e6 / st.steps.max(1) as f64
-    );
-    if let (Some(path), Some(fmt)) = (out, format) {
-        match fmt {
-            "csv" => traj.write_csv(path),
-            _ => traj.write_parquet(path).map_err(std::io::Error::other),
-        }
-        .with_context(|| format!("writing {}", path.display()))?;
-        println!(
-            "trajectory       {} rows × {} columns → {}",
-            traj.rows(),
-            traj.columns.len(),
-            path.display()
-        );
-    }
-    if let Some(d) = &drawing {
-        let title = scene_path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let title = format!("{} ({})", scene.name, title);
-        std::fs::write(&d.path, drawing::svg(&model, &snapshots, d.view, &title))
-            .with_context(|| format!("writing {}", d.path.display()))?;
-        println!(
-            "drawing          {} snapshot(s) → {}",
-            snapshots.len(),
-            d.path.display()
-        );
-    }
-    if let Some(e) = run.error {
-        bail!(e);
-    }
-    if !scene.probes.is_empty() {
-        println!("probes");
-        let width = scene.probes.iter().map(|p| p.name.len()).max().unwrap_or(0);
-        for (p, v) in scene.probes.iter().zip(run.values) {
-            match v {
-                Ok(v) => println!("  {:width$}  {v:.9e} {}", p.name, p.unit),
-                Err(e) => println!("  {:width$}  none: {e}", p.name),
-            }
-        }
-    }
-    if st.solver_failures > 0 || st.newton_failures > 0 {
+    if report.nonconverged_steps() > 0 {
         eprintln!(
             "warning: {} step(s) did not converge; see the counts above",
-            st.solver_failures + st.newton_failures
+            report.nonconverged_steps()
         );
     }
     Ok(())
 }
 
-/// The Monte-Carlo σ of each output from `dir/summary.json` (None if absent).
-fn sigma_from(dir: &Path, outputs: &[String]) -> Result<Option<Vec<f64>>> {
-    let path = dir.join("summary.json");
-    let Ok(text) = std::fs::read_to_string(&path) else {
-        return Ok(None);
-    };
-    let json: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
-    let sd_of = |name: &str| {
-        json["outputs"]
-            .as_array()?
-            .iter()
-            .find(|o| o["name"] == name)?["sd"]
-            .as_f64()
-            .filter(|s| *s > 0.0)
-    };
-    let sigma: Option<Vec<f64>> = outputs.iter().map(|o| sd_of(o)).collect();
-    if sigma.is_none() {
-        eprintln!(
-            "note: {} lacks a positive σ for some output; errors are relative instead",
-            path.display()
-        );
-    }
-    Ok(sigma)
+struct ConvergeArgs<'a> {
+    study: &'a Path,
+    out: Option<&'a PathBuf>,
+    samples: u64,
+    results: Option<&'a PathBuf>,
+    target: Option<f64>,
+    hs: &'a [f64],
+    threads: Option<usize>,
 }
 
-fn converge(
-    study_path: &Path,
-    out: Option<&PathBuf>,
-    samples: u64,
-    results: Option<&PathBuf>,
-    target: Option<f64>,
-    hs: &[f64],
-) -> Result<()> {
-    let study = Study::load(study_path, None)?;
-    let mc_study::study::subject::Subject::Mechanism(scene) = &study.subject else {
+fn converge(args: ConvergeArgs) -> Result<()> {
+    let study = Study::load(args.study, None)?;
+    let Subject::Mechanism(scene) = &study.subject else {
         bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
     };
     let base = Fidelity::of(&scene.params);
-    let mut ladder = Ladder::around_scene(scene, samples);
-    if !hs.is_empty() {
-        if let Some(h) = hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
+    let mut ladder = Ladder::around_scene(scene, args.samples);
+    if !args.hs.is_empty() {
+        if let Some(h) = args.hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
             bail!("--h: step sizes must be positive, got {h}");
         }
-        ladder.fidelities = hs.iter().map(|&h| Fidelity { h, ..base.clone() }).collect();
-        let finest = hs.iter().copied().fold(f64::INFINITY, f64::min);
+        ladder.fidelities = args
+            .hs
+            .iter()
+            .map(|&h| Fidelity { h, ..base.clone() })
+            .collect();
+        let finest = args.hs.iter().copied().fold(f64::INFINITY, f64::min);
         ladder.reference.h = ladder.reference.h.min(finest / 2.0);
     }
-    let results_dir = results.cloned().unwrap_or_else(|| study.output_dir.clone());
+    let results_dir = args
+        .results
+        .cloned()
+        .unwrap_or_else(|| study.output_dir.clone());
     let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
-    let sigma = sigma_from(&results_dir, &names)?;
-    let target = target.unwrap_or(if sigma.is_some() { 0.01 } else { 1e-3 });
+    let summary = Summary::load(&results_dir)?;
+    let sigma = summary.as_ref().and_then(|s| sigma_of(s, &names));
+    if summary.is_some() && sigma.is_none() {
+        eprintln!(
+            "note: {} lacks a positive σ for some output; errors are relative instead",
+            results_dir.join("summary.json").display()
+        );
+    }
+    let target = args
+        .target
+        .unwrap_or(if sigma.is_some() { 0.01 } else { 1e-3 });
     if target.is_nan() || target <= 0.0 {
         bail!("--target must be positive, got {target}");
     }
@@ -493,33 +305,41 @@ fn converge(
             results_dir.join("summary.json").display()
         ),
         None => eprintln!(
-            "no summary.json in {}: errors relative to the reference; target {target}",
+            "no usable summary.json in {}: errors relative to the reference; target {target}",
             results_dir.display()
         ),
     }
-    let total = (ladder.fidelities.len() + 1) as u64 * (1 + samples.min(study.runs()));
+    let total = (ladder.fidelities.len() + 1) as u64 * (1 + args.samples.min(study.runs()));
     let bar = indicatif::ProgressBar::new(total);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} runs  {msg}")
             .expect("template"),
     );
-    let conv = sweep(&study, &ladder, sigma, |f, sample, run| {
-        bar.inc(1);
-        bar.set_message(format!("{} {sample}: {:.0} ms", f.label(), run.wall_ms));
-        if let Some(e) = &run.error {
-            bar.println(format!("{} {sample}: failed: {e}", f.label()));
-        }
-    })
-    .map_err(anyhow::Error::msg)?;
+    let pool = thread_pool(args.threads)?;
+    let conv = pool
+        .install(|| {
+            sweep(&study, &ladder, sigma, |f, sample, run| {
+                bar.inc(1);
+                bar.set_message(format!("{} {sample}: {:.0} ms", f.label(), run.wall_ms));
+                if let Some(e) = &run.error {
+                    bar.println(format!("{} {sample}: failed: {e}", f.label()));
+                }
+            })
+        })
+        .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
-    print!("{}", conv.table());
-    let dir = out
+    print!("{conv}");
+    let dir = args
+        .out
         .cloned()
         .unwrap_or_else(|| study.output_dir.join("converge"));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let csv = dir.join("converge.csv");
     std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
-    let plot = mc_study::report::figures::save(&conv.figure(target), &dir.join("work-precision"))?;
+    let plot = mc_study::report::figures::save(
+        &mc_study::report::work_precision(&conv, target),
+        &dir.join("work-precision"),
+    )?;
     eprintln!(
         "runs: {}; work–precision plot: {} (and .png)",
         csv.display(),
@@ -539,6 +359,18 @@ fn converge(
     Ok(())
 }
 
+/// A rayon pool of `threads` workers (default: all cores).
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        if t == 0 {
+            bail!("--threads must be ≥ 1");
+        }
+        b = b.num_threads(t);
+    }
+    b.build().context("starting the worker threads")
+}
+
 /// `mc-study run` arguments.
 struct RunArgs {
     samples: Option<u64>,
@@ -550,6 +382,7 @@ struct RunArgs {
     part_seconds: f64,
 }
 
+/// Runs a study; `Ok(false)` when interrupted (the samples done are saved).
 fn run(study: &Path, args: RunArgs) -> Result<bool> {
     let study = Study::load(study, args.samples)?;
     if args.threads == Some(0) {
@@ -602,7 +435,7 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     }
     if r.missing.is_empty() && opts.shard.count == 1 {
         let m = merge(&out, false)?;
-        print!("{}", m.summary.table());
+        print!("{}", m.summary);
         eprintln!(
             "results: {} ({} rows), {}",
             m.path.display(),
@@ -678,47 +511,6 @@ fn slurm(
     Ok(())
 }
 
-fn print_status(out: &Path, shards: Option<u64>) -> Result<()> {
-    let (m, v) = status(out, shards)?;
-    println!(
-        "study {} ({} runs, hash {}…)",
-        m.study_name,
-        m.runs,
-        &m.study_hash[..12]
-    );
-    println!(
-        "{:<8} {:>9} {:>9} {:>9} {:>9}  state",
-        "shard", "samples", "done", "failed", "missing"
-    );
-    let mut resubmit = Vec::new();
-    for s in &v {
-        let state = if s.done == s.samples {
-            "complete"
-        } else if s.done == 0 {
-            "missing"
-        } else {
-            "partial"
-        };
-        if s.done < s.samples {
-            resubmit.push(s.shard.index.to_string());
-        }
-        println!(
-            "{:<8} {:>9} {:>9} {:>9} {:>9}  {state}",
-            format!("{}/{}", s.shard.index, s.shard.count),
-            s.samples,
-            s.done,
-            s.failed,
-            s.samples - s.done
-        );
-    }
-    if resubmit.is_empty() {
-        println!("all shards complete: `mc-study merge {}`", out.display());
-    } else {
-        println!("incomplete shards: --array={}", resubmit.join(","));
-    }
-    Ok(())
-}
-
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
@@ -739,7 +531,7 @@ fn main() -> std::process::ExitCode {
                 (None, None) => Ok(None),
             };
             match shard {
-                Err(e) => Err(anyhow::anyhow!(e)),
+                Err(e) => Err(e.into()),
                 Ok(shard) => match run(
                     study,
                     RunArgs {
@@ -759,7 +551,7 @@ fn main() -> std::process::ExitCode {
             }
         }
         Command::Merge { out, allow_partial } => merge(out, *allow_partial).map(|m| {
-            print!("{}", m.summary.table());
+            print!("{}", m.summary);
             eprintln!("results: {} ({} rows)", m.path.display(), m.rows);
             if !m.missing.is_empty() {
                 eprintln!(
@@ -769,7 +561,7 @@ fn main() -> std::process::ExitCode {
                 );
             }
         }),
-        Command::Status { out, shards } => print_status(out, *shards),
+        Command::Status { out, shards } => status(out, *shards).map(|s| print!("{s}")),
         Command::Report { out } => mc_study::report::build(out).map(|r| {
             println!(
                 "report: {} ({} figures, each also as .svg and .png in {})",
@@ -785,7 +577,16 @@ fn main() -> std::process::ExitCode {
             results,
             target,
             h,
-        } => converge(study, out.as_ref(), *samples, results.as_ref(), *target, h),
+            threads,
+        } => converge(ConvergeArgs {
+            study,
+            out: out.as_ref(),
+            samples: *samples,
+            results: results.as_ref(),
+            target: *target,
+            hs: h,
+            threads: *threads,
+        }),
         Command::Slurm {
             study,
             tasks,
@@ -821,7 +622,7 @@ fn main() -> std::process::ExitCode {
             svg,
             snapshots,
             view,
-        } => simulate(SimulateArgs {
+        } => run_simulate(SimulateArgs {
             scene,
             out: out.as_ref(),
             duration: *duration,

@@ -3,6 +3,7 @@
 
 use crate::integrator::Simulation;
 use crate::mechanics::{BodyRef, Pose};
+use crate::scene::units::DisplayUnit;
 use nalgebra::Vector3;
 
 /// A scalar read off the state after a step.
@@ -117,6 +118,11 @@ pub struct Probe {
     pub name: String,
     /// SI unit of the value ("s", "m", "N").
     pub unit: String,
+    /// The unit to show it in (`unit:` in the scene), if the scene gives one.
+    pub display: Option<DisplayUnit>,
+    /// Why the value depends on the step size, if it does (a peak of an impulsive force
+    /// in a rigid model), with the converged alternative; shown wherever the value is.
+    pub caution: Option<String>,
     pub kind: ProbeKind,
 }
 

@@ -19,7 +19,7 @@ fn subject(text: &str) -> Subject {
 
 /// Runs one sample; returns the outcome and the output names.
 fn run(subject: &Subject, parameters: &[(String, f64)]) -> (Outcome, Vec<String>) {
-    let names: Vec<String> = subject.outputs().into_iter().map(|(n, _)| n).collect();
+    let names: Vec<String> = subject.outputs().into_iter().map(|o| o.name).collect();
     let params: Vec<(&str, f64)> = parameters.iter().map(|(p, v)| (p.as_str(), *v)).collect();
     let all: Vec<usize> = (0..names.len()).collect();
     (subject.run(&params, &all), names)
@@ -98,7 +98,7 @@ fn latched_state_does_not_depend_on_the_step() {
     let fine = text.replace(settle, "friction: [], h: 2.5 us, tolerance: 1e-10 }");
     let latched = |text: &str| {
         let subject = subject(text);
-        let (names, _): (Vec<String>, Vec<_>) = subject.outputs().into_iter().unzip();
+        let names: Vec<String> = subject.outputs().into_iter().map(|o| o.name).collect();
         // FC-1…FC-6 only: the run stops once they are read, at 4 ms
         let fcs: Vec<usize> = (0..names.len())
             .filter(|&i| names[i].starts_with("FC"))

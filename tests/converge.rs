@@ -6,6 +6,7 @@ use mc_study::study::converge::{sweep, Fidelity, Ladder};
 use mc_study::study::subject::Subject;
 use mc_study::study::Study;
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 #[test]
 fn step_size_ladder_converges_on_the_bouncing_ball() {
@@ -86,9 +87,30 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     assert_eq!(fast.yaml(), "fidelity: { preset: fast }\n");
     // step sizes only, coarse to fine: 1e-3, 5e-4, 2e-4, 1e-4, 5e-5
     ladder.fidelities.truncate(5);
-    let mut runs = 0;
-    let conv = sweep(&study, &ladder, None, |_, _, _| runs += 1).unwrap();
-    assert_eq!(runs, 6 * 3, "5 rungs + the reference, 3 samples each");
+    let runs = AtomicUsize::new(0);
+    let conv = sweep(&study, &ladder, None, |_, _, _| {
+        runs.fetch_add(1, Ordering::Relaxed);
+    })
+    .unwrap();
+    assert_eq!(
+        runs.into_inner(),
+        6 * 3,
+        "5 rungs + the reference, 3 samples each"
+    );
+    // the runs go in parallel; their outputs do not depend on the thread count
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| sweep(&study, &ladder, None, |_, _, _| {}).unwrap());
+    let bits = |c: &mc_study::study::converge::Convergence| -> Vec<u64> {
+        c.runs
+            .iter()
+            .flatten()
+            .flat_map(|r| r.outputs.iter().map(|x| x.to_bits()))
+            .collect()
+    };
+    assert_eq!(bits(&one_thread), bits(&conv));
     assert_eq!(conv.sample_names, ["nominal", "sample 0", "sample 1"]);
     assert_eq!(conv.fidelities.last().unwrap().h, 1e-5);
     let k = conv
@@ -122,7 +144,7 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     }
     assert!(conv.fidelities[f].yaml().contains("h: "));
     // the work–precision plot: one point per rung and output
-    let fig = conv.figure(target);
+    let fig = mc_study::report::work_precision(&conv, target);
     assert_eq!(fig.series.len(), conv.outputs.len());
     assert!(fig.series.iter().all(|(_, p)| p.len() == 5));
     let dir = std::env::temp_dir().join(format!("mc-study-converge-{}", std::process::id()));

@@ -1,7 +1,7 @@
 //! `mc-study slurm` on a real Slurm: a 4-task array, one task cancelled mid-run, its index
 //! resubmitted, the merge job run; the merged results equal a single-machine run.
-//! Runs when built with MC_STUDY_SLURM=1 (`.ci/run` starts `../shared/tools/local-slurm`
-//! and sets it); otherwise it is reported as ignored.
+//! Runs when built with MC_STUDY_SLURM=1 (`.ci/run` starts the one-node cluster of
+//! `ci/local-slurm` and sets it); otherwise it is reported as ignored.
 
 mod common;
 
@@ -69,7 +69,7 @@ fn parts_of(out: &Path, label: &str) -> Vec<std::path::PathBuf> {
 #[test]
 #[cfg_attr(
     not(slurm_cluster),
-    ignore = "needs a Slurm cluster: `../shared/tools/local-slurm start`, then MC_STUDY_SLURM=1 cargo test (.ci/run does both)"
+    ignore = "needs a Slurm cluster: `ci/local-slurm start`, then MC_STUDY_SLURM=1 cargo test (.ci/run does both)"
 )]
 fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_results() {
     let exe = env!("CARGO_BIN_EXE_mc-study");

@@ -2,6 +2,7 @@
 //! PNG each. The PNG backend renders text with DejaVu Sans embedded in the binary, so a
 //! machine without system fonts draws readable axes; the SVG leaves text to the browser.
 
+use crate::scene::units::DisplayUnit;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -27,56 +28,6 @@ fn register_font() {
             eprintln!("warning: the embedded font did not load; PNG figures will lack text");
         }
     });
-}
-
-/// A quantity's display scale: values in SI times `factor` are shown in `unit`, so that
-/// axes read "mm" and "ms" rather than 1e-3 m.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Scale {
-    pub factor: f64,
-    pub unit: String,
-}
-
-impl Scale {
-    /// Millimetres, micrometres, milliseconds or microseconds when the values are small.
-    pub fn for_values(si_unit: &str, values: &[f64]) -> Scale {
-        let big = values
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        let pick = |options: &[(f64, &str)]| {
-            options
-                .iter()
-                .find(|(f, _)| big * f >= 0.1)
-                .or(options.last())
-                .map(|(f, u)| Scale {
-                    factor: *f,
-                    unit: u.to_string(),
-                })
-                .unwrap()
-        };
-        match si_unit {
-            "m" => pick(&[(1.0, "m"), (1e3, "mm"), (1e6, "µm")]),
-            "s" => pick(&[(1.0, "s"), (1e3, "ms"), (1e6, "µs")]),
-            u => Scale {
-                factor: 1.0,
-                unit: if u.is_empty() || u == "1" {
-                    String::new()
-                } else {
-                    u.to_string()
-                },
-            },
-        }
-    }
-
-    /// "name [unit]" for an axis.
-    pub fn label(&self, name: &str) -> String {
-        if self.unit.is_empty() {
-            name.to_string()
-        } else {
-            format!("{name} [{}]", self.unit)
-        }
-    }
 }
 
 /// Tick labels with enough digits to tell ticks apart over the range [lo, hi].
@@ -142,7 +93,7 @@ pub fn save(figure: &impl Figure, stem: &Path) -> anyhow::Result<PathBuf> {
 /// the specification limits.
 pub struct HistogramFigure<'a> {
     pub title: String,
-    pub scale: Scale,
+    pub scale: DisplayUnit,
     pub name: &'a str,
     /// Successful values (SI).
     pub values: &'a [f64],
@@ -154,7 +105,7 @@ pub struct HistogramFigure<'a> {
 impl Figure for HistogramFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
         area.fill(&WHITE)?;
-        let k = self.scale.factor;
+        let k = self.scale.per_si;
         let mut sorted: Vec<f64> = self.values.iter().map(|v| v * k).collect();
         sorted.sort_by(f64::total_cmp);
         let (lo, width, counts) = crate::study::statistics::histogram(&sorted);
@@ -183,8 +134,8 @@ impl Figure for HistogramFigure<'_> {
             .build_cartesian_2d(x_lo..x_hi, 0.0..y_hi)?;
         chart
             .configure_mesh()
-            .x_desc(self.scale.label(self.name))
-            .y_desc(format!("probability density [1/{}]", self.scale.unit).replace(" [1/]", ""))
+            .x_desc(self.scale.heading(self.name))
+            .y_desc(format!("probability density [1/{}]", self.scale.label).replace(" [1/]", ""))
             .x_label_formatter(&tick_format(x_lo, x_hi))
             .y_label_formatter(&tick_format(0.0, y_hi))
             .y_labels(6)
@@ -257,7 +208,7 @@ impl Figure for HistogramFigure<'_> {
 /// Empirical CDF of an output.
 pub struct EcdfFigure<'a> {
     pub title: String,
-    pub scale: Scale,
+    pub scale: DisplayUnit,
     pub name: &'a str,
     pub values: &'a [f64],
 }
@@ -265,7 +216,7 @@ pub struct EcdfFigure<'a> {
 impl Figure for EcdfFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
         area.fill(&WHITE)?;
-        let mut v: Vec<f64> = self.values.iter().map(|x| x * self.scale.factor).collect();
+        let mut v: Vec<f64> = self.values.iter().map(|x| x * self.scale.per_si).collect();
         v.sort_by(f64::total_cmp);
         let (lo, hi) = padded(
             v.first().copied().unwrap_or(0.0),
@@ -279,7 +230,7 @@ impl Figure for EcdfFigure<'_> {
             .build_cartesian_2d(lo..hi, 0.0..1.0)?;
         chart
             .configure_mesh()
-            .x_desc(self.scale.label(self.name))
+            .x_desc(self.scale.heading(self.name))
             .y_desc("fraction of samples ≤ x")
             .x_label_formatter(&tick_format(lo, hi))
             .x_labels(7)
@@ -302,9 +253,9 @@ impl Figure for EcdfFigure<'_> {
 pub struct ScatterFigure<'a> {
     pub title: String,
     pub x_name: &'a str,
-    pub x_scale: Scale,
+    pub x_scale: DisplayUnit,
     pub y_name: &'a str,
-    pub y_scale: Scale,
+    pub y_scale: DisplayUnit,
     pub points: &'a [(f64, f64)],
 }
 
@@ -314,7 +265,7 @@ impl Figure for ScatterFigure<'_> {
         let pts: Vec<(f64, f64)> = self
             .points
             .iter()
-            .map(|(x, y)| (x * self.x_scale.factor, y * self.y_scale.factor))
+            .map(|(x, y)| (x * self.x_scale.per_si, y * self.y_scale.per_si))
             .collect();
         let range = |f: fn(&(f64, f64)) -> f64| {
             let (lo, hi) = pts
@@ -333,8 +284,8 @@ impl Figure for ScatterFigure<'_> {
             .build_cartesian_2d(x0..x1, y0..y1)?;
         chart
             .configure_mesh()
-            .x_desc(self.x_scale.label(self.x_name))
-            .y_desc(self.y_scale.label(self.y_name))
+            .x_desc(self.x_scale.heading(self.x_name))
+            .y_desc(self.y_scale.heading(self.y_name))
             .x_label_formatter(&tick_format(x0, x1))
             .y_label_formatter(&tick_format(y0, y1))
             .x_labels(6)
@@ -458,7 +409,7 @@ impl Figure for BarsFigure {
 /// count, in sample-id order.
 pub struct ConvergenceFigure<'a> {
     pub title: String,
-    pub scale: Scale,
+    pub scale: DisplayUnit,
     pub name: &'a str,
     pub values: &'a [f64],
 }
@@ -466,7 +417,7 @@ pub struct ConvergenceFigure<'a> {
 impl Figure for ConvergenceFigure<'_> {
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
         area.fill(&WHITE)?;
-        let k = self.scale.factor;
+        let k = self.scale.per_si;
         // Welford's running mean and variance
         let (mut mean, mut m2) = (0.0, 0.0);
         let mut rows = Vec::with_capacity(self.values.len());
@@ -549,11 +500,11 @@ impl Figure for ConvergenceFigure<'_> {
     }
 }
 
-fn unit_suffix(s: &Scale) -> String {
-    if s.unit.is_empty() {
+fn unit_suffix(s: &DisplayUnit) -> String {
+    if s.label.is_empty() {
         String::new()
     } else {
-        format!(" [{}]", s.unit)
+        format!(" [{}]", s.label)
     }
 }
 
@@ -689,16 +640,6 @@ impl Figure for WorkPrecisionFigure {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn scales_pick_readable_units() {
-        assert_eq!(Scale::for_values("m", &[1.07e-2]).unit, "mm");
-        assert_eq!(Scale::for_values("m", &[2.0e-5]).unit, "µm");
-        assert_eq!(Scale::for_values("m", &[0.69]).unit, "m");
-        assert_eq!(Scale::for_values("s", &[4.7e-3]).unit, "ms");
-        assert_eq!(Scale::for_values("N", &[13.6]).unit, "N");
-        assert_eq!(Scale::for_values("1", &[3.0]).label("y"), "y");
-    }
 
     #[test]
     fn ticks_carry_enough_digits() {

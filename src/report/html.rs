@@ -2,7 +2,6 @@
 //! text, the fidelity and the run's health. No script, no stylesheet or image from
 //! elsewhere: it opens offline in any browser.
 
-use super::figures::Scale;
 use super::{Data, FigureFile};
 use crate::study::store::{META_SCENE, META_STUDY, META_VERSION};
 use anyhow::{Context, Result};
@@ -32,14 +31,6 @@ fn inline_svg(f: &FigureFile) -> Result<String> {
         std::fs::read_to_string(&f.svg).with_context(|| format!("reading {}", f.svg.display()))?;
     let start = text.find("<svg").unwrap_or(0);
     Ok(text[start..].to_string())
-}
-
-fn num(v: f64, scale: &Scale) -> String {
-    if v.is_finite() {
-        format!("{:.6}", v * scale.factor)
-    } else {
-        "–".into()
-    }
 }
 
 const STYLE: &str =
@@ -127,8 +118,8 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     // summary table, each output in its display unit
     let _ = writeln!(s, "<h2>Summary</h2><table><tr><th>output</th><th>unit</th><th>n</th><th>failed</th><th>mean</th><th>95 % CI of mean</th><th>σ</th><th>min</th><th>1 %</th><th>5 %</th><th>50 %</th><th>95 %</th><th>99 %</th><th>max</th><th>out of spec (Wilson 95 %)</th><th>Cp / Cpk</th></tr>");
     for o in &data.summary.outputs {
-        let sc = Scale::for_values(&o.unit, &[o.mean, o.min, o.max]);
-        let q: Vec<String> = o.quantiles.iter().map(|(_, v)| num(*v, &sc)).collect();
+        let num = |v: f64| o.show(v);
+        let q: Vec<String> = o.quantiles.iter().map(|(_, v)| num(*v)).collect();
         let spec = match &o.out_of_spec {
             Some(x) => format!(
                 "{} = {:.3} % ({:.3}–{:.3} %)",
@@ -148,16 +139,16 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             s,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{spec}</td><td>{cap}</td></tr>",
             esc(&o.name),
-            esc(&sc.unit),
+            esc(&o.display_unit),
             o.count,
             o.failed,
-            num(o.mean, &sc),
-            num(o.mean_ci95.0, &sc),
-            num(o.mean_ci95.1, &sc),
-            num(o.sd, &sc),
-            num(o.min, &sc),
+            num(o.mean),
+            num(o.mean_ci95.0),
+            num(o.mean_ci95.1),
+            num(o.sd),
+            num(o.min),
             q[0], q[1], q[2], q[3], q[4],
-            num(o.max, &sc),
+            num(o.max),
         );
     }
     let _ = writeln!(s, "</table>");

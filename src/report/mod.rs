@@ -5,6 +5,8 @@
 pub mod figures;
 mod html;
 
+use crate::scene::units::DisplayUnit;
+use crate::study::converge::Convergence;
 use crate::study::manifest::{Manifest, Ranges};
 use crate::study::merge::collect;
 use crate::study::sensitivity::{sobol_indices, src, srrc, Regression, SobolIndices};
@@ -13,10 +15,34 @@ use crate::study::summary::Summary;
 use anyhow::{bail, Context, Result};
 use figures::{
     save, BarSeries, BarsFigure, ConvergenceFigure, EcdfFigure, HistogramFigure,
-    LogHistogramFigure, Scale, ScatterFigure,
+    LogHistogramFigure, ScatterFigure,
 };
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+
+/// The work–precision diagram of a `converge` sweep: every output's error against the
+/// cost, per fidelity, with the target.
+pub fn work_precision(conv: &Convergence, target: f64) -> figures::WorkPrecisionFigure {
+    let n = conv.fidelities.len() - 1;
+    figures::WorkPrecisionFigure {
+        title: "work–precision: error against cost per fidelity".into(),
+        y_desc: if conv.sigma.is_some() {
+            "error / Monte-Carlo σ".into()
+        } else {
+            "relative error".into()
+        },
+        series: conv
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _))| {
+                let pts = (0..n).map(|f| (conv.cost(f), conv.error(f, k))).collect();
+                (name.clone(), pts)
+            })
+            .collect(),
+        target,
+    }
+}
 
 /// Seed of the bootstrap of the Sobol' intervals (fixed: a report is reproducible).
 const BOOTSTRAP_SEED: u64 = 2026;
@@ -74,7 +100,8 @@ fn analyse(out: &Path) -> Result<Data> {
     }
     let missing =
         Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
-    let summary = Summary::of(&manifest.study_name, &table, &manifest.limits);
+    let study = crate::study::merge::stored_study(&manifest, &table)?;
+    let summary = Summary::of(&manifest.study_name, &table, &study.outputs);
     let d = table.columns.inputs.len();
     let saltelli = manifest.design == "saltelli";
     // rows for the regressions: the independent points (A and B blocks of Saltelli)
@@ -152,7 +179,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
         .iter()
         .map(|(n, _)| short_input(n))
         .collect();
-    for (k, (name, unit)) in t.columns.outputs.iter().enumerate() {
+    for (k, (name, _)) in t.columns.outputs.iter().enumerate() {
         let s = &data.summary.outputs[k];
         let values: Vec<f64> = ok
             .iter()
@@ -162,16 +189,15 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
         if values.is_empty() {
             continue;
         }
-        let scale = Scale::for_values(unit, &values);
+        let scale = s.display();
         let stem = dir.join(format!("hist_{}", slug(name)));
-        let fmt = |v: f64| format!("{:.5}", v * scale.factor);
         let svg = save(
             &HistogramFigure {
                 title: format!(
                     "{name}: mean {} {u}, σ {} {u}",
-                    fmt(s.mean),
-                    fmt(s.sd),
-                    u = scale.unit
+                    s.show(s.mean),
+                    s.show(s.sd),
+                    u = scale.label
                 ),
                 scale: scale.clone(),
                 name,
@@ -239,7 +265,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
                 &ScatterFigure {
                     title: title.clone(),
                     x_name: &inputs[j],
-                    x_scale: Scale::for_values(input_unit, &xs),
+                    x_scale: DisplayUnit::for_values(input_unit, &xs),
                     y_name: name,
                     y_scale: scale.clone(),
                     points: &points,

@@ -105,6 +105,27 @@ impl Scene {
         Ok(self.resolve(path)?.dim_and_range().0)
     }
 
+    /// Applies `PATH=VALUE` (`--set`): the value in SI or with a unit of the parameter's
+    /// dimension, e.g. `joints.J3.clearance=0.1mm`.
+    pub fn apply_setting(&mut self, setting: &str) -> Result<(), String> {
+        let Some((path, value)) = setting.split_once('=') else {
+            return Err(format!(
+                "`{setting}`: expected PATH=VALUE, e.g. joints.J3.clearance=0.1mm"
+            ));
+        };
+        let path = path.trim();
+        let dim = self.parameter_dim(path)?;
+        let q = super::units::parse_quantity(value).map_err(|e| format!("`{setting}`: {e}"))?;
+        if let Some(d) = q.dim.filter(|d| *d != dim) {
+            return Err(format!(
+                "`{setting}`: `{path}` is {}, but the value's unit is {}",
+                dim.describe(),
+                d.describe()
+            ));
+        }
+        self.set_parameter(path, q.si)
+    }
+
     /// Overrides one scene parameter by its path (SI value), as a study does per sample.
     /// A body's initial position moves that body only: joints and springs keep the anchors
     /// and rest lengths assembled from the scene file. The error names the path and says

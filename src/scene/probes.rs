@@ -4,7 +4,7 @@
 use super::error::{line, SceneError};
 use super::fields::{body_ref, count, opt_vec3, scalar, unit_vec3};
 use super::schema::{EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
-use super::units::Dim;
+use super::units::{Dim, DisplayUnit};
 use crate::mechanics::model::Candidate;
 use crate::mechanics::Model;
 use crate::probe::{Direction, Event, Measure, Probe, ProbeKind, Reduce, TimeRef};
@@ -261,9 +261,18 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
                 ))
             }
         };
+        let display = match &p.unit {
+            None => None,
+            Some(u) => Some(
+                DisplayUnit::parse(&u.value, dim)
+                    .map_err(|m| SceneError::at(line(u), f("unit"), m))?,
+            ),
+        };
         out.push(Probe {
             name: p.name.value.clone(),
             unit: dim.si_unit(),
+            display,
+            caution: None,
             kind,
         });
     }

@@ -314,6 +314,9 @@ pub struct ProbeSpec {
     pub at: Option<Spanned<TimeRef>>,
     pub from: Option<Spanned<TimeRef>>,
     pub to: Option<Spanned<TimeRef>>,
+    /// The unit the summary and the report show the value in (default: chosen from the
+    /// values), e.g. `mm`, `N*mm`, `deg`.
+    pub unit: Option<Name>,
 }
 
 /// Exactly one of: `closes: CONTACT` (its normal impulse becomes positive), `opens:

@@ -29,6 +29,16 @@ impl Dim {
         Dim(self.0 + o.0 * exp, self.1 + o.1 * exp, self.2 + o.2 * exp)
     }
 
+    /// The dimension of a unit label such as [`Dim::si_unit`] writes ("m", "N*m", "1");
+    /// `None` for an empty or unknown label.
+    pub fn of_unit(label: &str) -> Option<Dim> {
+        match label.trim() {
+            "" => None,
+            "1" => Some(Dim::NONE),
+            l => parse_quantity(&format!("1 {l}")).ok().and_then(|q| q.dim),
+        }
+    }
+
     /// The SI unit of the dimension, as written in output metadata ("m", "N", "1").
     pub fn si_unit(self) -> String {
         let named = [
@@ -199,6 +209,95 @@ pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
     })
 }
 
+/// The unit a value is shown in ("mm", "µs", "N*mm"): its label and the factor that turns
+/// an SI value into it. Values are stored in SI; only what is printed or drawn is scaled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DisplayUnit {
+    pub label: String,
+    /// Display value = SI value × `per_si`.
+    pub per_si: f64,
+}
+
+impl DisplayUnit {
+    /// The SI unit of `dim` itself ("m", "N"; empty for a pure number).
+    pub fn si(dim: Dim) -> DisplayUnit {
+        let label = dim.si_unit();
+        DisplayUnit {
+            label: if label == "1" { String::new() } else { label },
+            per_si: 1.0,
+        }
+    }
+
+    /// A unit written by the user (`unit: mm` on a probe), checked against the value's
+    /// dimension.
+    pub fn parse(label: &str, dim: Dim) -> Result<DisplayUnit, String> {
+        let q = parse_quantity(&format!("1 {label}"))?;
+        let d = q.dim.unwrap_or(Dim::NONE);
+        if d != dim {
+            return Err(format!(
+                "`{label}` is {} but the value is {}",
+                d.describe(),
+                dim.describe()
+            ));
+        }
+        Ok(DisplayUnit {
+            label: label.trim().to_string(),
+            per_si: 1.0 / q.si,
+        })
+    }
+
+    /// A readable unit for values of dimension `dim` whose largest magnitude is `big`:
+    /// lengths in m, mm or µm and times in s, ms or µs (the first whose value is at least
+    /// 0.1), anything else in SI.
+    pub fn auto(dim: Dim, big: f64) -> DisplayUnit {
+        let options: &[(f64, &str)] = match dim {
+            Dim::LENGTH => &[(1.0, "m"), (1e3, "mm"), (1e6, "µm")],
+            Dim::TIME => &[(1.0, "s"), (1e3, "ms"), (1e6, "µs")],
+            _ => return DisplayUnit::si(dim),
+        };
+        let (per_si, label) = options
+            .iter()
+            .find(|(f, _)| big * f >= 0.1)
+            .or(options.last())
+            .copied()
+            .expect("options are not empty");
+        DisplayUnit {
+            label: label.to_string(),
+            per_si,
+        }
+    }
+
+    /// A readable unit ([`DisplayUnit::auto`]) for values labelled with the SI unit
+    /// `si_unit`; a label it does not know is kept as it is.
+    pub fn for_values(si_unit: &str, values: &[f64]) -> DisplayUnit {
+        let big = values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        match Dim::of_unit(si_unit) {
+            Some(dim) => DisplayUnit::auto(dim, big),
+            None => DisplayUnit {
+                label: si_unit.to_string(),
+                per_si: 1.0,
+            },
+        }
+    }
+
+    /// "name [unit]", for an axis or a column heading.
+    pub fn heading(&self, name: &str) -> String {
+        if self.label.is_empty() {
+            name.to_string()
+        } else {
+            format!("{name} [{}]", self.label)
+        }
+    }
+
+    /// The value `si` in this unit.
+    pub fn of(&self, si: f64) -> f64 {
+        si * self.per_si
+    }
+}
+
 impl<'de> Deserialize<'de> for Quantity {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct V;
@@ -252,6 +351,25 @@ mod tests {
         assert_eq!(q("1.5e-3 mm").si, 1.5e-6);
         assert_eq!(q("2 N*s/m").dim, Some(Dim::DAMPING));
         assert!((q("60 rpm").si - 2.0 * std::f64::consts::PI).abs() < 1e-12);
+    }
+
+    #[test]
+    fn display_units_scale_si_values() {
+        let mm = DisplayUnit::parse("mm", Dim::LENGTH).unwrap();
+        assert_eq!(mm.of(0.0107), 10.7);
+        let nmm = DisplayUnit::parse("N*mm", Dim::TORQUE).unwrap();
+        assert!((nmm.of(0.04) - 40.0).abs() < 1e-12);
+        let deg = DisplayUnit::parse("deg", Dim::NONE).unwrap();
+        assert!((deg.of(std::f64::consts::PI) - 180.0).abs() < 1e-12);
+        let e = DisplayUnit::parse("ms", Dim::LENGTH).unwrap_err();
+        assert!(e.contains("a time") && e.contains("a length"), "{e}");
+        assert_eq!(DisplayUnit::auto(Dim::LENGTH, 0.0107).label, "mm");
+        assert_eq!(DisplayUnit::auto(Dim::LENGTH, 5e-7).label, "µm");
+        assert_eq!(DisplayUnit::auto(Dim::TIME, 0.25).label, "s");
+        assert_eq!(DisplayUnit::auto(Dim::FORCE, 1e-3).label, "N");
+        assert_eq!(DisplayUnit::for_values("s", &[4.7e-3]).label, "ms");
+        assert_eq!(DisplayUnit::for_values("1", &[3.0]).heading("y"), "y");
+        assert_eq!(DisplayUnit::for_values("m", &[0.69]).heading("x"), "x [m]");
     }
 
     #[test]

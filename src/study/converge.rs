@@ -6,9 +6,11 @@
 //! every output stays below the target is recommended as a study `fidelity` block.
 
 use super::subject::Subject;
+use super::summary::Summary;
 use super::Study;
 use crate::integrator::{IntegrationParameters, Preset, Scheme};
-use std::fmt::Write;
+use rayon::prelude::*;
+use std::fmt::{self, Write};
 
 /// A setting in exponent form without the round-off of the ladder's products (1e-4, not
 /// 9.999999999999999e-5).
@@ -200,6 +202,15 @@ impl Ladder {
     }
 }
 
+/// Each output's Monte-Carlo σ from a summary (`None` unless every output has a positive
+/// one).
+pub fn sigma_of(summary: &Summary, outputs: &[String]) -> Option<Vec<f64>> {
+    outputs
+        .iter()
+        .map(|o| summary.output(o).map(|s| s.sd).filter(|s| *s > 0.0))
+        .collect()
+}
+
 /// One run: outputs (NaN where failed), wall time and the failure, if any.
 #[derive(Clone, Debug)]
 pub struct Run {
@@ -220,12 +231,14 @@ pub struct Convergence {
     pub sigma: Option<Vec<f64>>,
 }
 
-/// Runs the ladder; `progress` is told each finished run.
+/// Runs the ladder, every (fidelity, sample) run in parallel on the current rayon pool
+/// (each run is independent and deterministic, so the results do not depend on the thread
+/// count); `progress` is told each finished run, from the thread that ran it.
 pub fn sweep(
     study: &Study,
     ladder: &Ladder,
     sigma: Option<Vec<f64>>,
-    mut progress: impl FnMut(&Fidelity, &str, &Run),
+    progress: impl Fn(&Fidelity, &str, &Run) + Sync,
 ) -> Result<Convergence, String> {
     let Subject::Mechanism(scene) = &study.subject else {
         return Err("converge needs a mechanism scene: a function scene has no fidelity".into());
@@ -244,29 +257,35 @@ pub fn sweep(
     }
     let mut fidelities = ladder.fidelities.clone();
     fidelities.push(ladder.reference.clone());
-    let mut runs = Vec::new();
-    for f in &fidelities {
-        let mut s = (**scene).clone();
-        f.apply(&mut s.params);
-        if let (Some(x), Some(r)) = (f.extrapolate, s.schedule.refine.as_mut()) {
-            r.extrapolate = x;
-        }
-        let subject = Subject::Mechanism(Box::new(s));
-        let row: Vec<Run> = samples
-            .iter()
-            .map(|(name, params)| {
-                let o = subject.run(params, &selected);
-                let run = Run {
-                    outputs: o.outputs,
-                    wall_ms: o.diagnostics.wall_ms,
-                    error: o.error,
-                };
-                progress(f, name, &run);
-                run
-            })
-            .collect();
-        runs.push(row);
-    }
+    let subjects: Vec<Subject> = fidelities
+        .iter()
+        .map(|f| {
+            let mut s = (**scene).clone();
+            f.apply(&mut s.params);
+            if let (Some(x), Some(r)) = (f.extrapolate, s.schedule.refine.as_mut()) {
+                r.extrapolate = x;
+            }
+            Subject::Mechanism(Box::new(s))
+        })
+        .collect();
+    let jobs: Vec<(usize, usize)> = (0..fidelities.len())
+        .flat_map(|f| (0..samples.len()).map(move |s| (f, s)))
+        .collect();
+    let done: Vec<Run> = jobs
+        .par_iter()
+        .map(|&(f, s)| {
+            let (name, params) = &samples[s];
+            let o = subjects[f].run(params, &selected);
+            let run = Run {
+                outputs: o.outputs,
+                wall_ms: o.diagnostics.wall_ms,
+                error: o.error,
+            };
+            progress(&fidelities[f], name, &run);
+            run
+        })
+        .collect();
+    let runs: Vec<Vec<Run>> = done.chunks(samples.len()).map(<[Run]>::to_vec).collect();
     Ok(Convergence {
         outputs: study
             .outputs
@@ -320,7 +339,7 @@ impl Convergence {
     }
 
     /// The printed table: one row per fidelity, its cost and each output's error.
-    pub fn table(&self) -> String {
+    fn table(&self) -> String {
         let unit = if self.sigma.is_some() {
             "error / Monte-Carlo σ (max over samples)"
         } else {
@@ -393,32 +412,13 @@ impl Convergence {
     }
 }
 
-impl Convergence {
-    /// The work–precision diagram: every output's error against the cost, per fidelity.
-    pub fn figure(&self, target: f64) -> crate::report::figures::WorkPrecisionFigure {
-        let n = self.fidelities.len() - 1;
-        crate::report::figures::WorkPrecisionFigure {
-            title: "work–precision: error against cost per fidelity".into(),
-            y_desc: if self.sigma.is_some() {
-                "error / Monte-Carlo σ".into()
-            } else {
-                "relative error".into()
-            },
-            series: self
-                .outputs
-                .iter()
-                .enumerate()
-                .map(|(k, (name, _))| {
-                    let pts = (0..n).map(|f| (self.cost(f), self.error(f, k))).collect();
-                    (name.clone(), pts)
-                })
-                .collect(),
-            target,
-        }
-    }
-}
-
 /// Column heading: an output name cut to 12 characters.
 fn short(name: &str) -> String {
     name.chars().take(12).collect()
+}
+
+impl fmt::Display for Convergence {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.table())
+    }
 }

@@ -93,23 +93,18 @@ impl Ranges {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct OutputLimits {
-    pub name: String,
-    pub lower: Option<f64>,
-    pub upper: Option<f64>,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
     pub tool: String,
     pub study_name: String,
     pub study_hash: String,
     pub design: String,
     pub seed: u64,
+    /// The study's sample count N (`--samples` or `samples`; for Saltelli the base rows).
+    #[serde(default)]
+    pub samples: u64,
     /// Sample ids are 0..runs.
     pub runs: u64,
     pub columns: Columns,
-    pub limits: Vec<OutputLimits>,
     /// Shard count of the latest run (for `status`).
     pub shards: u64,
     pub completed: Ranges,

@@ -5,7 +5,8 @@ use super::manifest::{Manifest, Ranges};
 use super::runner::{part_files, read_part, Shard};
 use super::store::{self, Row, Table};
 use super::summary::Summary;
-use anyhow::{bail, Result};
+use super::Study;
+use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -34,6 +35,31 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
             metadata,
         },
     ))
+}
+
+/// The study of a result directory, from the study and scene texts stored in its parts,
+/// checked against the manifest's hash: the limits, display units and cautions of the
+/// summary come from the texts the hash covers, never from an editable manifest.
+pub fn stored_study(manifest: &Manifest, table: &Table) -> Result<Study> {
+    let text = |key: &str| {
+        table.metadata.get(key).with_context(|| {
+            format!(
+                "the part files lack the stored study (metadata `{key}`): written by another tool?"
+            )
+        })
+    };
+    let (study_text, scene_text) = (text(store::META_STUDY)?, text(store::META_SCENE)?);
+    let samples = (manifest.samples > 0).then_some(manifest.samples);
+    let study = Study::from_texts(study_text, scene_text, "the stored study.yaml", samples)
+        .context("the study stored with the results no longer loads")?;
+    if study.hash() != manifest.study_hash {
+        bail!(
+            "manifest.json does not match the study stored in the part files (hash {}… against {}…): it was edited or belongs to another run; delete it and rerun the study to rebuild it from the parts",
+            &manifest.study_hash[..12.min(manifest.study_hash.len())],
+            &study.hash()[..12]
+        );
+    }
+    Ok(study)
 }
 
 pub struct Merged {
@@ -66,7 +92,8 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
         .insert("mc_study.complete".into(), missing.is_empty().to_string());
     let path = out.join("results.parquet");
     store::write(&path, &table.columns, &table.rows, &table.metadata)?;
-    let summary = Summary::of(&manifest.study_name, &table, &manifest.limits);
+    let study = stored_study(&manifest, &table)?;
+    let summary = Summary::of(&manifest.study_name, &table, &study.outputs);
     let tmp = out.join(format!(".summary.json.{}.tmp", std::process::id()));
     std::fs::write(&tmp, summary.to_json())?;
     std::fs::rename(&tmp, out.join("summary.json"))?;
@@ -87,7 +114,64 @@ pub struct ShardStatus {
     pub missing: Ranges,
 }
 
-pub fn status(out: &Path, shards: Option<u64>) -> Result<(Manifest, Vec<ShardStatus>)> {
+/// `mc-study status`: the study and each shard's state.
+pub struct StatusReport {
+    pub manifest: Manifest,
+    pub shards: Vec<ShardStatus>,
+    pub out: PathBuf,
+}
+
+impl std::fmt::Display for StatusReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let m = &self.manifest;
+        writeln!(
+            f,
+            "study {} ({} runs, hash {}…)",
+            m.study_name,
+            m.runs,
+            &m.study_hash[..12.min(m.study_hash.len())]
+        )?;
+        writeln!(
+            f,
+            "{:<8} {:>9} {:>9} {:>9} {:>9}  state",
+            "shard", "samples", "done", "failed", "missing"
+        )?;
+        let mut resubmit = Vec::new();
+        for s in &self.shards {
+            let state = if s.done == s.samples {
+                "complete"
+            } else if s.done == 0 {
+                "missing"
+            } else {
+                "partial"
+            };
+            if s.done < s.samples {
+                resubmit.push(s.shard.index.to_string());
+            }
+            writeln!(
+                f,
+                "{:<8} {:>9} {:>9} {:>9} {:>9}  {state}",
+                format!("{}/{}", s.shard.index, s.shard.count),
+                s.samples,
+                s.done,
+                s.failed,
+                s.samples - s.done
+            )?;
+        }
+        if resubmit.is_empty() {
+            writeln!(
+                f,
+                "all shards complete: `mc-study merge {}`",
+                self.out.display()
+            )
+        } else {
+            writeln!(f, "incomplete shards: --array={}", resubmit.join(","))
+        }
+    }
+}
+
+/// The state of each shard of an `n`-way split (default: the latest run's).
+pub fn status(out: &Path, shards: Option<u64>) -> Result<StatusReport> {
     let (manifest, table) = collect(out)?;
     let n = shards.unwrap_or(manifest.shards).max(1);
     let done = Ranges::from_ids(table.rows.iter().map(|r| r.id).collect());
@@ -110,5 +194,9 @@ pub fn status(out: &Path, shards: Option<u64>) -> Result<(Manifest, Vec<ShardSta
             }
         })
         .collect();
-    Ok((manifest, v))
+    Ok(StatusReport {
+        manifest,
+        shards: v,
+        out: out.to_path_buf(),
+    })
 }

@@ -19,7 +19,7 @@ pub mod summary;
 
 use crate::scene::error::line;
 use crate::scene::schema::{Name, Q};
-use crate::scene::units::Dim;
+use crate::scene::units::{Dim, DisplayUnit};
 use crate::scene::{apply_integrator, SceneError};
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
@@ -29,8 +29,34 @@ use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 pub use subject::{Diagnostics, Outcome, Subject};
 
-/// Study errors have the shape of scene errors: file, line, field, message.
-pub type StudyError = SceneError;
+/// An error in a study: in the study file itself (its file, line and field), in the scene
+/// the study names (the scene file's own line and field), or in a shard specification.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StudyError {
+    #[error("{0}")]
+    Study(SceneError),
+    #[error("{0}")]
+    Scene(SceneError),
+    #[error("{0}")]
+    Shard(String),
+}
+
+/// Errors located in the study file (the scene's are wrapped explicitly).
+impl From<SceneError> for StudyError {
+    fn from(e: SceneError) -> Self {
+        StudyError::Study(e)
+    }
+}
+
+impl StudyError {
+    /// The located error (file, line, field), for the study and scene variants.
+    pub fn located(&self) -> Option<&SceneError> {
+        match self {
+            StudyError::Study(e) | StudyError::Scene(e) => Some(e),
+            StudyError::Shard(_) => None,
+        }
+    }
+}
 
 /// A sampled input.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,15 +67,21 @@ pub struct Parameter {
     pub unit: String,
 }
 
-/// A kept output with its optional specification limits.
+/// An output of the subject, with what the study says of it (its specification limits).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Output {
     pub name: String,
+    /// SI unit of the values.
     pub unit: String,
     /// Index among the subject's outputs.
     pub index: usize,
     pub lower: Option<f64>,
     pub upper: Option<f64>,
+    /// The unit the scene asks to show it in; `None`: chosen from the values.
+    pub display: Option<DisplayUnit>,
+    /// Why the value depends on the step size, for an output that is not a converged
+    /// quantity (the peak of an impulsive force); `None` otherwise.
+    pub caution: Option<String>,
 }
 
 /// A validated study, ready to run.
@@ -69,16 +101,18 @@ pub struct Study {
     pub output_dir: PathBuf,
 }
 
+/// An error at `field` (and `line`) of the study file.
+fn at(line: Option<u64>, field: impl Into<String>, message: impl Into<String>) -> StudyError {
+    StudyError::Study(SceneError::at(line, field, message))
+}
+
 fn quantity(q: &Q, dim: Option<Dim>, field: &str) -> Result<f64, StudyError> {
     let v = match dim {
-        Some(d) => q
-            .value
-            .value(d)
-            .map_err(|m| SceneError::at(line(q), field, m))?,
+        Some(d) => q.value.value(d).map_err(|m| at(line(q), field, m))?,
         None => q.value.si,
     };
     if v.is_nan() {
-        return Err(SceneError::at(line(q), field, "must be a number"));
+        return Err(at(line(q), field, "must be a number"));
     }
     Ok(v)
 }
@@ -95,7 +129,7 @@ fn distribution(
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(SceneError::at(line(x), f(name), "must be finite"))
+            Err(at(line(x), f(name), "must be finite"))
         }
     };
     let (d, kind) = match &spec.value {
@@ -134,7 +168,7 @@ fn distribution(
         DistributionSpec::Lognormal { mean, sd } => {
             let (m, s) = (finite(mean, "lognormal.mean")?, finite(sd, "lognormal.sd")?);
             if s < 0.0 {
-                return Err(SceneError::at(
+                return Err(at(
                     line(sd),
                     f("lognormal.sd"),
                     format!("must be ≥ 0, got {s}"),
@@ -142,7 +176,7 @@ fn distribution(
             }
             (
                 Distribution::lognormal(m, s)
-                    .map_err(|e| SceneError::at(line(mean), f("lognormal.mean"), e))?,
+                    .map_err(|e| at(line(mean), f("lognormal.mean"), e))?,
                 "lognormal",
             )
         }
@@ -165,7 +199,7 @@ fn distribution(
             }
             _ => line(spec),
         };
-        SceneError::at(l, f(kind), m)
+        at(l, f(kind), m)
     })?;
     Ok(d)
 }
@@ -184,22 +218,40 @@ impl Study {
         Study::from_yaml(&text, &file, base, samples)
     }
 
-    /// Parses and validates study text; `base` is the directory the scene path is relative
-    /// to.
+    /// Parses and validates study text; `base` is the directory of the study file, which
+    /// the paths written in it (`scene`, `output`) are relative to.
     pub fn from_yaml(
         text: &str,
         file: &str,
         base: &Path,
         samples: Option<u64>,
     ) -> Result<Study, StudyError> {
+        Study::parse(text, file, base, None, samples)
+    }
+
+    /// The study of a result directory, from the study and scene texts stored with its
+    /// results (nothing is read from disk).
+    pub fn from_texts(
+        text: &str,
+        scene_text: &str,
+        file: &str,
+        samples: Option<u64>,
+    ) -> Result<Study, StudyError> {
+        Study::parse(text, file, Path::new(""), Some(scene_text), samples)
+    }
+
+    fn parse(
+        text: &str,
+        file: &str,
+        base: &Path,
+        scene_text: Option<&str>,
+        samples: Option<u64>,
+    ) -> Result<Study, StudyError> {
         let spec: StudySpec =
             serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
-        Study::build(spec, text, base, samples).map_err(|e| {
-            if e.file.is_none() {
-                e.in_file(file)
-            } else {
-                e
-            }
+        Study::build(spec, text, base, scene_text, samples).map_err(|e| match e {
+            StudyError::Study(e) if e.file.is_none() => StudyError::Study(e.in_file(file)),
+            e => e,
         })
     }
 
@@ -207,24 +259,29 @@ impl Study {
         spec: StudySpec,
         text: &str,
         base: &Path,
+        scene_text: Option<&str>,
         samples: Option<u64>,
     ) -> Result<Study, StudyError> {
         let scene_path = base.join(&spec.scene.value);
-        let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
-            SceneError::at(
-                line(&spec.scene),
-                "scene",
-                format!("cannot read `{}`: {e}", scene_path.display()),
-            )
-        })?;
-        let mut subject = Subject::from_yaml(&scene_text, &scene_path.display().to_string())?;
+        let scene_text = match scene_text {
+            Some(t) => t.to_string(),
+            None => std::fs::read_to_string(&scene_path).map_err(|e| {
+                at(
+                    line(&spec.scene),
+                    "scene",
+                    format!("cannot read `{}`: {e}", scene_path.display()),
+                )
+            })?,
+        };
+        let mut subject = Subject::from_yaml(&scene_text, &scene_path.display().to_string())
+            .map_err(StudyError::Scene)?;
 
         let n = match samples {
             Some(n) => n as f64,
             None => quantity(&spec.samples, Some(Dim::NONE), "samples")?,
         };
         if !(n >= 1.0 && n.fract() == 0.0 && n <= 1e12) {
-            return Err(SceneError::at(
+            return Err(at(
                 if samples.is_some() {
                     None
                 } else {
@@ -237,7 +294,7 @@ impl Study {
         let kind = match &spec.design {
             None => DesignKind::Random,
             Some(d) => DesignKind::parse(&d.value).ok_or_else(|| {
-                SceneError::at(
+                at(
                     line(d),
                     "design",
                     format!(
@@ -252,7 +309,7 @@ impl Study {
         for (i, p) in spec.parameters.iter().enumerate() {
             let field = format!("parameters[{i}]");
             if parameters.iter().any(|q| q.path == p.path.value) {
-                return Err(SceneError::at(
+                return Err(at(
                     line(&p.path),
                     format!("{field}.path"),
                     format!("`{}` is sampled twice", p.path.value),
@@ -260,7 +317,7 @@ impl Study {
             }
             let dim = subject
                 .parameter_dim(&p.path.value)
-                .map_err(|m| SceneError::at(line(&p.path), format!("{field}.path"), m))?;
+                .map_err(|m| at(line(&p.path), format!("{field}.path"), m))?;
             let distribution =
                 distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
             parameters.push(Parameter {
@@ -271,18 +328,18 @@ impl Study {
         }
 
         let available = subject.outputs();
-        let names = |v: &[(String, String)]| {
+        let names = |v: &[Output]| {
             v.iter()
-                .map(|(n, _)| n.as_str())
+                .map(|o| o.name.as_str())
                 .collect::<Vec<_>>()
                 .join(", ")
         };
         let find = |n: &Name, field: &str| {
             available
                 .iter()
-                .position(|(a, _)| *a == n.value)
+                .position(|o| o.name == n.value)
                 .ok_or_else(|| {
-                    SceneError::at(
+                    at(
                         line(n),
                         field,
                         format!(
@@ -299,35 +356,19 @@ impl Study {
                 for (i, n) in list.iter().enumerate() {
                     let index = find(n, &format!("outputs[{i}]"))?;
                     if outputs.iter().any(|o| o.index == index) {
-                        return Err(SceneError::at(
+                        return Err(at(
                             line(n),
                             format!("outputs[{i}]"),
                             format!("`{}` is listed twice", n.value),
                         ));
                     }
-                    outputs.push(Output {
-                        name: n.value.clone(),
-                        unit: available[index].1.clone(),
-                        index,
-                        lower: None,
-                        upper: None,
-                    });
+                    outputs.push(available[index].clone());
                 }
             }
-            None => {
-                for (index, (name, unit)) in available.iter().enumerate() {
-                    outputs.push(Output {
-                        name: name.clone(),
-                        unit: unit.clone(),
-                        index,
-                        lower: None,
-                        upper: None,
-                    });
-                }
-            }
+            None => outputs = available.clone(),
         }
         if outputs.is_empty() {
-            return Err(SceneError::at(
+            return Err(at(
                 None,
                 "outputs",
                 "the study keeps no output (the scene defines no probes?)",
@@ -336,9 +377,9 @@ impl Study {
         for (i, l) in spec.limits.iter().enumerate() {
             let field = format!("limits[{i}]");
             let index = find(&l.output, &format!("{field}.output"))?;
-            let dim = unit_dim(&available[index].1);
+            let dim = Dim::of_unit(&available[index].unit);
             let Some(o) = outputs.iter_mut().find(|o| o.index == index) else {
-                return Err(SceneError::at(
+                return Err(at(
                     line(&l.output),
                     format!("{field}.output"),
                     format!("`{}` is not among the study's outputs", l.output.value),
@@ -356,7 +397,7 @@ impl Study {
                 .transpose()?;
             if let (Some(a), Some(b)) = (o.lower, o.upper) {
                 if a >= b {
-                    return Err(SceneError::at(
+                    return Err(at(
                         line(&l.output),
                         field,
                         format!("needs lower < upper, got [{a}, {b}]"),
@@ -364,11 +405,7 @@ impl Study {
                 }
             }
             if o.lower.is_none() && o.upper.is_none() {
-                return Err(SceneError::at(
-                    line(&l.output),
-                    field,
-                    "give `lower`, `upper` or both",
-                ));
+                return Err(at(line(&l.output), field, "give `lower`, `upper` or both"));
             }
         }
 
@@ -376,7 +413,7 @@ impl Study {
             match &mut subject {
                 Subject::Mechanism(scene) => apply_integrator(f, &mut scene.params, "fidelity")?,
                 Subject::Function(_) => {
-                    return Err(SceneError::at(
+                    return Err(at(
                         None,
                         "fidelity",
                         "a function scene has no integrator to set",
@@ -387,9 +424,9 @@ impl Study {
 
         let seed = spec.seed.as_ref().map_or(0, |s| s.value);
         let design = Design::new(kind, parameters.len(), n as u64, seed)
-            .map_err(|m| SceneError::at(spec.design.as_ref().and_then(line), "design", m))?;
+            .map_err(|m| at(spec.design.as_ref().and_then(line), "design", m))?;
         if parameters.is_empty() && kind != DesignKind::Random {
-            return Err(SceneError::at(
+            return Err(at(
                 spec.design.as_ref().and_then(line),
                 "design",
                 "needs at least one parameter",
@@ -403,10 +440,13 @@ impl Study {
                 Subject::Mechanism(s) => s.name.clone(),
                 Subject::Function(f) => f.name.clone(),
             });
-        let output_dir = spec.output.as_ref().map_or_else(
-            || PathBuf::from("results").join(&name),
-            |o| PathBuf::from(&o.value),
-        );
+        let output_dir = match &spec.output {
+            None => PathBuf::from("results").join(&name),
+            Some(o) if o.value.trim().is_empty() => {
+                return Err(at(line(o), "output", "must name a directory"))
+            }
+            Some(o) => base.join(&o.value),
+        };
         Ok(Study {
             name,
             description: spec.description.clone().unwrap_or_default(),
@@ -462,19 +502,4 @@ impl Study {
         h.update(format!("\n--- samples {} ---\n", self.design.base));
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
-}
-
-/// The dimension of an SI unit label produced by [`Dim::si_unit`] (`None` if unknown).
-fn unit_dim(unit: &str) -> Option<Dim> {
-    [
-        Dim::NONE,
-        Dim::LENGTH,
-        Dim::MASS,
-        Dim::TIME,
-        Dim::VELOCITY,
-        Dim::FORCE,
-        Dim::TORQUE,
-    ]
-    .into_iter()
-    .find(|d| d.si_unit() == unit && !unit.is_empty())
 }

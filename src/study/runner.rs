@@ -3,9 +3,9 @@
 //! run loses at most the rows not yet in a part; a resumed run skips every sample found in
 //! a part, whichever run or shard wrote it.
 
-use super::manifest::{lock_file, DirLock, Manifest, OutputLimits, Ranges};
+use super::manifest::{lock_file, DirLock, Manifest, Ranges};
 use super::store::{self, Columns, Row};
-use super::Study;
+use super::{Study, StudyError};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
@@ -30,7 +30,11 @@ impl Shard {
     pub const WHOLE: Shard = Shard { index: 0, count: 1 };
 
     /// Parses `I/N`; `/N` takes I from `SLURM_ARRAY_TASK_ID`.
-    pub fn parse(text: &str) -> Result<Shard, String> {
+    pub fn parse(text: &str) -> Result<Shard, StudyError> {
+        Shard::parse_text(text).map_err(StudyError::Shard)
+    }
+
+    fn parse_text(text: &str) -> Result<Shard, String> {
         let (i, n) = text
             .split_once('/')
             .ok_or_else(|| format!("--shard `{text}`: expected I/N (e.g. 3/8) or /N"))?;
@@ -193,17 +197,9 @@ impl Study {
             study_hash: self.hash(),
             design: self.design.kind.name().to_string(),
             seed: self.seed,
+            samples: self.design.base,
             runs: self.runs(),
             columns: self.columns(),
-            limits: self
-                .outputs
-                .iter()
-                .map(|o| OutputLimits {
-                    name: o.name.clone(),
-                    lower: o.lower,
-                    upper: o.upper,
-                })
-                .collect(),
             shards,
             completed,
         }

@@ -1,6 +1,7 @@
 //! What a study samples: a mechanism scene (simulated, outputs from its probes) or an
 //! analytic function scene. One sample = set the parameters, run, read the outputs.
 
+use super::Output;
 use crate::probe_run::run_probes;
 use crate::scene::units::Dim;
 use crate::scene::{FunctionScene, Scene, SceneError};
@@ -51,18 +52,33 @@ impl Subject {
         }
     }
 
-    /// (name, SI unit) of every output the scene defines.
-    pub fn outputs(&self) -> Vec<(String, String)> {
+    /// Every output the scene defines, in its order (no limits: the study sets them).
+    pub fn outputs(&self) -> Vec<Output> {
+        let output = |index: usize, name: &str, unit: &str| Output {
+            name: name.to_string(),
+            unit: unit.to_string(),
+            index,
+            lower: None,
+            upper: None,
+            display: None,
+            caution: None,
+        };
         match self {
             Subject::Mechanism(s) => s
                 .probes
                 .iter()
-                .map(|p| (p.name.clone(), p.unit.clone()))
+                .enumerate()
+                .map(|(i, p)| Output {
+                    display: p.display.clone(),
+                    caution: p.caution.clone(),
+                    ..output(i, &p.name, &p.unit)
+                })
                 .collect(),
             Subject::Function(f) => f
                 .outputs
                 .iter()
-                .map(|o| (o.name.clone(), o.unit.clone()))
+                .enumerate()
+                .map(|(i, o)| output(i, &o.name, &o.unit))
                 .collect(),
         }
     }

@@ -1,28 +1,68 @@
 //! `OUT/summary.json` and the printed table: per output, count, failures, mean with its
 //! 95 % interval, σ, range, quantiles, histogram, out-of-spec fraction (Wilson 95 %) and
-//! Cp/Cpk; per input–output pair, Pearson and Spearman correlation.
+//! Cp/Cpk; per input–output pair, Pearson and Spearman correlation. The JSON holds SI
+//! values; the table shows each output in its display unit, with as many digits as its
+//! spread needs.
 
-use super::manifest::OutputLimits;
 use super::statistics as st;
 use super::store::Table;
-use serde::Serialize;
-use std::fmt::Write;
+use super::Output;
+use crate::scene::units::{Dim, DisplayUnit};
+use anyhow::{Context, Result};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fmt::{self, Write};
+use std::path::Path;
 
 pub const QUANTILES: [f64; 5] = [0.01, 0.05, 0.5, 0.95, 0.99];
 
-#[derive(Clone, Debug, Serialize)]
+/// The table lists, per output, the inputs whose |Spearman ρ| is at least this…
+const STRONG_CORRELATION: f64 = 0.1;
+/// …the strongest first, at most this many.
+const STRONGEST_INPUTS: usize = 3;
+
+/// JSON writes an undefined statistic (NaN: σ of one sample) as null; read it back as NaN.
+fn nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+fn nan_pair<'de, D: Deserializer<'de>>(d: D) -> Result<(f64, f64), D::Error> {
+    let (a, b) = <(Option<f64>, Option<f64>)>::deserialize(d)?;
+    Ok((a.unwrap_or(f64::NAN), b.unwrap_or(f64::NAN)))
+}
+
+fn nan_pairs<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(f64, f64)>, D::Error> {
+    let v = Vec::<(Option<f64>, Option<f64>)>::deserialize(d)?;
+    Ok(v.into_iter()
+        .map(|(a, b)| (a.unwrap_or(f64::NAN), b.unwrap_or(f64::NAN)))
+        .collect())
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OutputSummary {
     pub name: String,
+    /// SI unit of every value below.
     pub unit: String,
+    /// The unit the table and the report show it in.
+    pub display_unit: String,
+    /// Display value = SI value × this.
+    pub display_factor: f64,
+    /// Why the value depends on the step size, if it does.
+    pub caution: Option<String>,
     /// Successful samples.
     pub count: u64,
     pub failed: u64,
+    #[serde(deserialize_with = "nan")]
     pub mean: f64,
+    #[serde(deserialize_with = "nan_pair")]
     pub mean_ci95: (f64, f64),
+    #[serde(deserialize_with = "nan")]
     pub sd: f64,
+    #[serde(deserialize_with = "nan")]
     pub min: f64,
+    #[serde(deserialize_with = "nan")]
     pub max: f64,
     /// (p, value) for p in 1, 5, 50, 95, 99 %.
+    #[serde(deserialize_with = "nan_pairs")]
     pub quantiles: Vec<(f64, f64)>,
     pub histogram: Histogram,
     pub lower_limit: Option<f64>,
@@ -32,29 +72,84 @@ pub struct OutputSummary {
     pub cpk: Option<f64>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+impl OutputSummary {
+    /// The display unit of the table and the report.
+    pub fn display(&self) -> DisplayUnit {
+        DisplayUnit {
+            label: self.display_unit.clone(),
+            per_si: self.display_factor,
+        }
+    }
+
+    /// The p-quantile (p among [`QUANTILES`]), NaN if absent.
+    pub fn quantile(&self, p: f64) -> f64 {
+        self.quantiles
+            .iter()
+            .find(|(x, _)| *x == p)
+            .map_or(f64::NAN, |q| q.1)
+    }
+
+    /// Decimals that show the spread: σ with two significant digits (six significant
+    /// digits of the mean when σ is zero or undefined), in the display unit.
+    pub fn decimals(&self) -> usize {
+        let d = self.display();
+        let (sd, mean) = (d.of(self.sd).abs(), d.of(self.mean).abs());
+        let digits = if sd.is_finite() && sd > 0.0 {
+            1.0 - sd.log10().floor()
+        } else if mean.is_finite() && mean > 0.0 {
+            5.0 - mean.log10().floor()
+        } else {
+            3.0
+        };
+        digits.clamp(0.0, 12.0) as usize
+    }
+
+    /// An SI value in the display unit with the output's decimals ("–" if undefined).
+    pub fn show(&self, si: f64) -> String {
+        fixed(self.display().of(si), self.decimals())
+    }
+}
+
+/// `v` with `decimals` decimals, in exponent form beyond 1e7 ("–" if not finite).
+fn fixed(v: f64, decimals: usize) -> String {
+    if !v.is_finite() {
+        "–".into()
+    } else if v.abs() >= 1e7 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.decimals$}")
+    }
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Histogram {
+    #[serde(deserialize_with = "nan")]
     pub lower: f64,
+    #[serde(deserialize_with = "nan")]
     pub width: f64,
     pub counts: Vec<u64>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OutOfSpec {
     pub count: u64,
+    #[serde(deserialize_with = "nan")]
     pub fraction: f64,
+    #[serde(deserialize_with = "nan_pair")]
     pub wilson95: (f64, f64),
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Correlation {
     pub input: String,
     pub output: String,
+    #[serde(deserialize_with = "nan")]
     pub pearson: f64,
+    #[serde(deserialize_with = "nan")]
     pub spearman: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Summary {
     pub study: String,
     pub samples: u64,
@@ -65,17 +160,46 @@ pub struct Summary {
     pub failures: Vec<(String, u64)>,
 }
 
+/// The display unit of each output: the one its probe declares, else one chosen for all the
+/// outputs of its dimension together (from the largest magnitude among them), so that
+/// similar outputs (FC-2…FC-6, all lengths) share a unit.
+fn display_units(outputs: &[Output], values: &[Vec<f64>]) -> Vec<DisplayUnit> {
+    let dims: Vec<Option<Dim>> = outputs.iter().map(|o| Dim::of_unit(&o.unit)).collect();
+    let big = |dim: Dim| {
+        (0..outputs.len())
+            .filter(|&k| dims[k] == Some(dim) && outputs[k].display.is_none())
+            .flat_map(|k| values[k].iter())
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs()))
+    };
+    outputs
+        .iter()
+        .zip(&dims)
+        .map(|(o, dim)| match (&o.display, dim) {
+            (Some(d), _) => d.clone(),
+            (None, Some(dim)) => DisplayUnit::auto(*dim, big(*dim)),
+            (None, None) => DisplayUnit::for_values(&o.unit, &[]),
+        })
+        .collect()
+}
+
 impl Summary {
-    pub fn of(study: &str, table: &Table, limits: &[OutputLimits]) -> Summary {
+    /// The summary of `table`, whose output columns are `outputs` in order.
+    pub fn of(study: &str, table: &Table, outputs: &[Output]) -> Summary {
         let ok: Vec<_> = table.rows.iter().filter(|r| !r.failed()).collect();
         let failed = table.rows.len() as u64 - ok.len() as u64;
-        let mut outputs = Vec::new();
-        for (k, (name, unit)) in table.columns.outputs.iter().enumerate() {
-            let mut x: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
-            x.sort_by(f64::total_cmp);
-            let lim = limits.iter().find(|l| l.name == *name);
-            let (lower, upper) = (lim.and_then(|l| l.lower), lim.and_then(|l| l.upper));
-            let (mean, sd) = (st::mean(&x), st::sd(&x));
+        let values: Vec<Vec<f64>> = (0..outputs.len())
+            .map(|k| {
+                let mut x: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
+                x.sort_by(f64::total_cmp);
+                x
+            })
+            .collect();
+        let units = display_units(outputs, &values);
+        let mut summaries = Vec::new();
+        for ((o, x), display) in outputs.iter().zip(&values).zip(units) {
+            let (lower, upper) = (o.lower, o.upper);
+            let (mean, sd) = (st::mean(x), st::sd(x));
             let out_of_spec = (lower.is_some() || upper.is_some()).then(|| {
                 let bad = x
                     .iter()
@@ -88,20 +212,23 @@ impl Summary {
                 }
             });
             let (cp, cpk) = st::capability(mean, sd, lower, upper);
-            let (hl, hw, counts) = st::histogram(&x);
-            outputs.push(OutputSummary {
-                name: name.clone(),
-                unit: unit.clone(),
+            let (hl, hw, counts) = st::histogram(x);
+            summaries.push(OutputSummary {
+                name: o.name.clone(),
+                unit: o.unit.clone(),
+                display_unit: display.label,
+                display_factor: display.per_si,
+                caution: o.caution.clone(),
                 count: x.len() as u64,
                 failed,
                 mean,
-                mean_ci95: st::mean_ci95(&x),
+                mean_ci95: st::mean_ci95(x),
                 sd,
                 min: x.first().copied().unwrap_or(f64::NAN),
                 max: x.last().copied().unwrap_or(f64::NAN),
                 quantiles: QUANTILES
                     .iter()
-                    .map(|&p| (p, st::quantile_sorted(&x, p)))
+                    .map(|&p| (p, st::quantile_sorted(x, p)))
                     .collect(),
                 histogram: Histogram {
                     lower: hl,
@@ -148,7 +275,7 @@ impl Summary {
             study: study.to_string(),
             samples: table.rows.len() as u64,
             failed,
-            outputs,
+            outputs: summaries,
             correlations,
             failures,
         }
@@ -161,62 +288,110 @@ impl Summary {
         s
     }
 
-    /// The table printed after a run or a merge.
-    pub fn table(&self) -> String {
+    /// `dir/summary.json`, if the directory has one.
+    pub fn load(dir: &Path) -> Result<Option<Summary>> {
+        let path = dir.join("summary.json");
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        };
+        serde_json::from_str(&text)
+            .map(Some)
+            .with_context(|| format!("{} is not a summary of mc-study", path.display()))
+    }
+
+    /// The summary of the output `name`, if it has one.
+    pub fn output(&self, name: &str) -> Option<&OutputSummary> {
+        self.outputs.iter().find(|o| o.name == name)
+    }
+
+    /// The inputs most strongly correlated with `output` (|Spearman ρ| ≥ 0.1, the strongest
+    /// first, at most three).
+    pub fn strongest_inputs(&self, output: &str) -> Vec<&Correlation> {
+        let mut v: Vec<&Correlation> = self
+            .correlations
+            .iter()
+            .filter(|c| c.output == output && c.spearman.abs() >= STRONG_CORRELATION)
+            .collect();
+        v.sort_by(|a, b| b.spearman.abs().total_cmp(&a.spearman.abs()));
+        v.truncate(STRONGEST_INPUTS);
+        v
+    }
+}
+
+/// Columns of the printed table, right-aligned but the first two.
+fn write_columns(s: &mut String, rows: &[Vec<String>]) {
+    let n = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let widths: Vec<usize> = (0..n)
+        .map(|c| {
+            rows.iter()
+                .filter_map(|r| r.get(c))
+                .map(|x| x.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    for r in rows {
+        let mut line = String::new();
+        for (c, x) in r.iter().enumerate() {
+            let pad = widths[c] - x.chars().count();
+            if c < 2 {
+                line.push_str(x);
+                line.push_str(&" ".repeat(pad));
+            } else {
+                line.push_str(&" ".repeat(pad));
+                line.push_str(x);
+            }
+            line.push_str("  ");
+        }
+        let _ = writeln!(s, "{}", line.trim_end());
+    }
+}
+
+/// The table printed after a run or a merge: each output in its display unit, the
+/// mean's 95 % interval as ±, the strongest inputs per output, the cautions, and the
+/// failures by reason.
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut s = String::new();
         let _ = writeln!(
             s,
             "study {}: {} samples, {} failed",
             self.study, self.samples, self.failed
         );
-        let label = |o: &OutputSummary| {
-            if o.unit.is_empty() || o.unit == "1" {
-                o.name.clone()
-            } else {
-                format!("{} [{}]", o.name, o.unit)
-            }
-        };
-        let w = self
-            .outputs
-            .iter()
-            .map(|o| label(o).chars().count())
-            .max()
-            .unwrap_or(6)
-            .max(6);
-        let _ = writeln!(
-            s,
-            "{:<w$} {:>6} {:>13} {:>27} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
-            "output", "n", "mean", "95% CI of mean", "sd", "min", "p1", "p50", "p99", "max"
-        );
-        let g = |v: f64| format!("{v:.5e}");
+        let mut rows = vec![[
+            "output", "unit", "n", "mean", "±95%", "σ", "min", "p1", "p50", "p99", "max",
+        ]
+        .map(String::from)
+        .to_vec()];
         for o in &self.outputs {
-            let q = |p: f64| {
-                o.quantiles
-                    .iter()
-                    .find(|(x, _)| *x == p)
-                    .map_or(f64::NAN, |q| q.1)
-            };
-            let _ = writeln!(
-                s,
-                "{:<w$} {:>6} {:>13} {:>27} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
-                label(o),
-                o.count,
-                g(o.mean),
-                format!("[{}, {}]", g(o.mean_ci95.0), g(o.mean_ci95.1)),
-                format!("{:.3e}", o.sd),
-                format!("{:.3e}", o.min),
-                format!("{:.3e}", q(0.01)),
-                format!("{:.3e}", q(0.5)),
-                format!("{:.3e}", q(0.99)),
-                format!("{:.3e}", o.max),
-            );
+            let flag = if o.caution.is_some() { " (!)" } else { "" };
+            rows.push(vec![
+                format!("{}{flag}", o.name),
+                o.display_unit.clone(),
+                o.count.to_string(),
+                o.show(o.mean),
+                o.show(0.5 * (o.mean_ci95.1 - o.mean_ci95.0)),
+                o.show(o.sd),
+                o.show(o.min),
+                o.show(o.quantile(0.01)),
+                o.show(o.quantile(0.5)),
+                o.show(o.quantile(0.99)),
+                o.show(o.max),
+            ]);
+        }
+        write_columns(&mut s, &rows);
+        for o in &self.outputs {
             if let Some(os) = &o.out_of_spec {
+                let limit = |v: Option<f64>, none: &str| v.map_or(none.into(), |v| o.show(v));
                 let _ = writeln!(
                     s,
-                    "{:<w$} out of spec [{}, {}]: {} = {:.3} % (95 % CI {:.3}–{:.3} %), Cp {}, Cpk {}",
-                    "",
-                    o.lower_limit.map_or("−∞".into(), |v| format!("{v:e}")),
-                    o.upper_limit.map_or("∞".into(), |v| format!("{v:e}")),
+                    "{}: out of spec [{}, {}] {}: {} = {:.3} % (95 % CI {:.3}–{:.3} %), Cp {}, Cpk {}",
+                    o.name,
+                    limit(o.lower_limit, "−∞"),
+                    limit(o.upper_limit, "∞"),
+                    o.display_unit,
                     os.count,
                     100.0 * os.fraction,
                     100.0 * os.wilson95.0,
@@ -227,18 +402,33 @@ impl Summary {
             }
         }
         if !self.correlations.is_empty() {
-            let _ = writeln!(s, "correlations (Pearson / Spearman):");
-            for c in &self.correlations {
-                let _ = writeln!(
-                    s,
-                    "  {:<28} → {:<24} {:>7.3} / {:>7.3}",
-                    c.input, c.output, c.pearson, c.spearman
-                );
+            let _ = writeln!(
+                s,
+                "strongest inputs (Spearman ρ, |ρ| ≥ {STRONG_CORRELATION}, at most {STRONGEST_INPUTS} per output; all pairs in summary.json):"
+            );
+            let w = self.outputs.iter().map(|o| o.name.len()).max().unwrap_or(0);
+            for o in &self.outputs {
+                let strongest = self.strongest_inputs(&o.name);
+                let list = if strongest.is_empty() {
+                    format!("none with |ρ| ≥ {STRONG_CORRELATION}")
+                } else {
+                    strongest
+                        .iter()
+                        .map(|c| format!("{} {:+.2}", c.input, c.spearman))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                let _ = writeln!(s, "  {:w$}  {list}", o.name);
+            }
+        }
+        for o in &self.outputs {
+            if let Some(c) = &o.caution {
+                let _ = writeln!(s, "(!) {}: {c}", o.name);
             }
         }
         for (reason, n) in &self.failures {
             let _ = writeln!(s, "failed ×{n}: {reason}");
         }
-        s
+        f.write_str(&s)
     }
 }
