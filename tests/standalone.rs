@@ -79,7 +79,7 @@ fn documentation_links_lead_somewhere() {
         }
     }
     assert!(
-        checked > 10,
+        checked > 5,
         "only {checked} links found: is the parser broken?"
     );
     assert!(dead.is_empty(), "dead links: {dead:#?}");
