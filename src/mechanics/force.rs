@@ -184,6 +184,19 @@ impl TorsionalSpring {
     }
 }
 
+/// The angle of body b's frame from body a's about `axis_a` (a unit vector of a's frame,
+/// the same vector of b's frame when the frames are aligned), in (−π, π]: zero where the
+/// frames are aligned, whatever the configuration the scene was written in.
+pub fn frame_angle(a: BodyRef, b: BodyRef, axis_a: &Vector3<f64>, poses: &[Pose]) -> f64 {
+    let (pa, pb) = (pose_of(a, poses), pose_of(b, poses));
+    let r = any_orthogonal(axis_a);
+    let n = pa.dir(axis_a);
+    let ra = pa.dir(&r);
+    let rb = pb.dir(&r);
+    let rb = rb - n * n.dot(&rb);
+    n.dot(&ra.cross(&rb)).atan2(ra.dot(&rb))
+}
+
 impl Force {
     /// Bodies the element acts on.
     pub fn bodies(&self) -> [BodyRef; 2] {

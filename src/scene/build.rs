@@ -9,12 +9,18 @@ use super::integrator::apply_integrator;
 use super::joints::{joint, BuiltJoint};
 use super::schema::SceneSpec;
 use super::units::Dim;
-use super::Scene;
+use super::{Scene, Tuning};
 use crate::integrator::IntegrationParameters;
 use crate::mechanics::Model;
 use nalgebra::Vector3;
 
-pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
+/// Builds the scene of the document `spec` (from `file`), tuned by `tuning`.
+pub(super) fn build(spec: SceneSpec, file: &str, tuning: Vec<Tuning>) -> Result<Scene, SceneError> {
+    parts(spec, file, tuning).map_err(|e| e.in_file(file))
+}
+
+fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
+    let spec = &document;
     if let Some(k) = spec.kind.as_ref().filter(|k| k.value != "mechanism") {
         return Err(SceneError::at(
             line(k),
@@ -75,15 +81,23 @@ pub(super) fn build(spec: &SceneSpec) -> R<Scene> {
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
     let mut params = IntegrationParameters::default();
     apply_integrator(&spec.integrator, &mut params, "integrator")?;
+    // the phases' steps and tolerances are ratios of the document's own
     let schedule = super::phases::schedule(spec, &model, &params)?;
+    for t in &tuning {
+        apply_integrator(&t.block, &mut params, &t.origin)?;
+    }
     let record_every = spec
         .record
         .every
         .as_ref()
         .map_or(Ok(1), |q| count(q, "record.every"))?;
+    let probes = super::probes::probes(&model, &spec.probes)?;
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
-        probes: super::probes::probes(&model, &spec.probes)?,
+        spec: document,
+        file: file.to_string(),
+        tuning,
+        probes,
         params,
         schedule,
         model,

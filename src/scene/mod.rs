@@ -5,13 +5,13 @@
 mod bodies;
 mod build;
 mod clearance;
+pub mod document;
 pub(crate) mod error;
 mod fields;
 mod forces;
 pub mod function;
 mod integrator;
 mod joints;
-mod parameter;
 mod phases;
 mod probes;
 pub mod schema;
@@ -26,10 +26,27 @@ pub use schema::{IntegratorSpec, SceneSpec};
 use crate::integrator::{IntegrationParameters, Schedule, SimError, Simulation};
 use crate::mechanics::Model;
 use std::path::Path;
+use units::Dim;
 
-/// A validated scene, ready to simulate.
+/// A change of the integration settings on top of the scene's own `integrator` block: a
+/// study's `fidelity` block, a rung of `converge`'s ladder. Kept with the scene, so that
+/// the scene rebuilt for a sample is tuned the same way.
+#[derive(Clone, Debug)]
+pub struct Tuning {
+    pub block: IntegratorSpec,
+    /// Where the block comes from, for error messages (`fidelity`).
+    pub origin: String,
+}
+
+/// A validated scene, ready to simulate: its document, and what was built from it.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// The parsed document, which a sample's parameters are written into.
+    pub spec: SceneSpec,
+    /// The file the document came from, for error messages.
+    pub file: String,
+    /// The tuning layers applied after the document's `integrator` block, in order.
+    pub tuning: Vec<Tuning>,
     pub name: String,
     pub model: Model,
     pub params: IntegrationParameters,
@@ -48,7 +65,73 @@ impl Scene {
     pub fn from_yaml(text: &str, file: &str) -> Result<Scene, SceneError> {
         let spec: SceneSpec =
             serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
-        build::build(&spec).map_err(|e| e.in_file(file))
+        build::build(spec, file, Vec::new())
+    }
+
+    /// Every parameter path of the scene, with its dimension and its value in the
+    /// document (`None` where a default applies).
+    pub fn parameters(&self) -> Vec<document::ParameterPath> {
+        document::paths(&self.spec)
+    }
+
+    /// The dimension of the value a parameter path takes, or why the path names none.
+    pub fn parameter_dim(&self, path: &str) -> Result<Dim, String> {
+        document::find(&mut self.spec.clone(), path, None)
+    }
+
+    /// The scene with `values` (path, SI value) written into its document, rebuilt and
+    /// validated; the error names the path, the value and what the scene says of it.
+    pub fn with_parameters(&self, values: &[(&str, f64)]) -> Result<Scene, String> {
+        if values.is_empty() {
+            return Ok(self.clone());
+        }
+        let mut spec = self.spec.clone();
+        for &(path, value) in values {
+            if !value.is_finite() {
+                return Err(format!(
+                    "parameter `{path}`: value must be finite, got {value}"
+                ));
+            }
+            document::find(&mut spec, path, Some(value))?;
+        }
+        build::build(spec, &self.file, self.tuning.clone()).map_err(|e| {
+            let set: Vec<String> = values.iter().map(|(p, v)| format!("{p} = {v}")).collect();
+            format!("with {}: {e}", set.join(", "))
+        })
+    }
+
+    /// Writes one parameter (SI value) into the document and rebuilds the scene.
+    pub fn set_parameter(&mut self, path: &str, value: f64) -> Result<(), String> {
+        *self = self.with_parameters(&[(path, value)])?;
+        Ok(())
+    }
+
+    /// Applies `PATH=VALUE` (`--set`): the value in SI or with a unit of the parameter's
+    /// dimension, e.g. `joints.J3.clearance=0.1mm`.
+    pub fn apply_setting(&mut self, setting: &str) -> Result<(), String> {
+        let Some((path, value)) = setting.split_once('=') else {
+            return Err(format!(
+                "`{setting}`: expected PATH=VALUE, e.g. joints.J3.clearance=0.1mm"
+            ));
+        };
+        let path = path.trim();
+        let dim = self.parameter_dim(path)?;
+        let q = units::parse_quantity(value).map_err(|e| format!("`{setting}`: {e}"))?;
+        if let Some(d) = q.dim.filter(|d| *d != dim) {
+            return Err(format!(
+                "`{setting}`: `{path}` is {}, but the value's unit is {}",
+                dim.describe(),
+                d.describe()
+            ));
+        }
+        self.set_parameter(path, q.si)
+    }
+
+    /// Applies a tuning layer now and keeps it for every rebuild.
+    pub fn tune(&mut self, tuning: Tuning) -> Result<(), SceneError> {
+        integrator::apply_integrator(&tuning.block, &mut self.params, &tuning.origin)?;
+        self.tuning.push(tuning);
+        Ok(())
     }
 
     /// A simulation of the scene from its initial state, with its phases.

@@ -9,7 +9,7 @@ pub type Q = Spanned<Quantity>;
 pub type Vector = Spanned<Vec<Quantity>>;
 pub type Name = Spanned<String>;
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneSpec {
     /// `mechanism` (the default); analytic scenes say `function` (see `function.rs`).
@@ -44,7 +44,7 @@ pub struct SceneSpec {
 /// An ideal joint. The anchor and axis are given either in world coordinates at the
 /// assembled configuration (`anchor`, `axis`) or in each body's frame
 /// (`anchor_a`/`anchor_b`, `axis_a`/`axis_b`).
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JointSpec {
     pub name: Name,
@@ -76,9 +76,25 @@ pub struct JointSpec {
     pub rim_points: Option<Q>,
     pub mu: Option<Q>,
     pub e: Option<Q>,
+    /// Joint-space initial condition, which the assembly meets.
+    pub initial: Option<Spanned<InitialSpec>>,
 }
 
-#[derive(Debug, Deserialize)]
+/// The initial state of a joint at t = 0: revolute `angle`, `rate` and prismatic
+/// `position`, `speed` (the coordinate from the written configuration and its rate); a
+/// revolute-clearance joint's `eccentricity` (the journal's offset from the bore axis, in
+/// the bore body's frame; default: centred).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    pub angle: Option<Q>,
+    pub rate: Option<Q>,
+    pub position: Option<Q>,
+    pub speed: Option<Q>,
+    pub eccentricity: Option<Vector>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LimitsSpec {
     pub lower: Q,
@@ -89,7 +105,7 @@ pub struct LimitsSpec {
 
 /// Exactly one of: `velocity` (constant rate of the joint coordinate from assembly),
 /// `position_table` (rows [t, q]), `effort` (torque or force), `effort_table` (rows [t, f]).
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DriveSpec {
     pub velocity: Option<Q>,
@@ -98,7 +114,7 @@ pub struct DriveSpec {
     pub effort_table: Option<Spanned<Vec<Vec<Quantity>>>>,
 }
 
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IntegratorSpec {
     /// `fast`, `balanced` or `accurate`: scales the scene's own settings (`Preset`), before
@@ -116,7 +132,7 @@ pub struct IntegratorSpec {
     pub locate_impacts: Option<bool>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ToleranceSpec {
     pub tolerance: Option<Q>,
@@ -126,7 +142,7 @@ pub struct ToleranceSpec {
 /// Until `until`, every moving body is damped by −`damping` · M v, and only the contact
 /// pairs and clearance joints listed in `friction` (default: all) keep their friction
 /// (`mechanics::Settle`).
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SettleSpec {
     pub until: Q,
@@ -141,7 +157,7 @@ pub struct SettleSpec {
 
 /// From the first closing of contact `after`, the step is `h` for `for`
 /// (`mechanics::Refine`).
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RefineSpec {
     pub after: Name,
@@ -153,14 +169,14 @@ pub struct RefineSpec {
     pub extrapolate: bool,
 }
 
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RecordSpec {
     /// Record every n-th step (default 1).
     pub every: Option<Q>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
     pub name: Name,
@@ -178,7 +194,7 @@ pub struct BodySpec {
     pub motion: Option<Name>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "lowercase")]
 pub enum ShapeSpec {
     Box { size: Vector },
@@ -187,7 +203,7 @@ pub enum ShapeSpec {
 }
 
 /// Exactly one of: `axis` + `angle`, `quaternion` [w, x, y, z], `rotation_vector`.
-#[derive(Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OrientationSpec {
     pub axis: Option<Vector>,
@@ -196,7 +212,7 @@ pub struct OrientationSpec {
     pub rotation_vector: Option<Vector>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSpec {
     pub name: Option<String>,
@@ -211,7 +227,7 @@ pub struct ContactSpec {
     pub e: Option<Q>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "lowercase")]
 #[allow(clippy::large_enum_variant)] // parsed once per scene; boxing would only obscure the schema
 pub enum PrimitiveSpec {
@@ -245,15 +261,19 @@ pub enum PrimitiveSpec {
     },
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "snake_case")]
-pub enum ForceSpec {
-    Spring(SpringSpec),
-    TorsionalSpring(TorsionalSpec),
-    Load(LoadSpec),
+/// A force element: exactly one of `spring`, `torsional_spring`, `load`, with an optional
+/// `name` that addresses it in parameter paths (`forces.<name>.spring.stiffness`; unnamed
+/// forces go by index, `forces.0.spring.stiffness`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSpec {
+    pub name: Option<Name>,
+    pub spring: Option<Spanned<SpringSpec>>,
+    pub torsional_spring: Option<Spanned<TorsionalSpec>>,
+    pub load: Option<Spanned<LoadSpec>>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpringSpec {
     pub body_a: Name,
@@ -269,7 +289,7 @@ pub struct SpringSpec {
     pub ramp: Option<Q>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TorsionalSpec {
     pub body_a: Name,
@@ -279,12 +299,15 @@ pub struct TorsionalSpec {
     pub stiffness: Q,
     pub damping: Option<Q>,
     pub preload: Option<Q>,
+    /// Angle (from the written configuration) at which the moment is the preload alone.
     pub rest_angle: Option<Q>,
+    /// The same, measured from the two bodies' frames aligned (not with `rest_angle`).
+    pub free_angle: Option<Q>,
     /// The preload rises linearly from zero over this time (default: applied at once).
     pub ramp: Option<Q>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     pub body: Name,
@@ -303,7 +326,7 @@ pub struct LoadSpec {
 /// A named output of a run: the time of an `event`, or a `measure` taken `at` a time or
 /// event (default: the end of the run) or reduced (`max`, `min`, `mean`) over the window
 /// [`from`, `to`] (default: the whole run).
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
     pub name: Name,
@@ -322,7 +345,7 @@ pub struct ProbeSpec {
 /// Exactly one of: `closes: CONTACT` (its normal impulse becomes positive), `opens:
 /// CONTACT` (its normal impulse returns to zero), or `crosses: VALUE` of `measure`
 /// (linearly interpolated between steps). `occurrence` counts from 1.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EventSpec {
     pub closes: Option<Name>,
@@ -334,18 +357,31 @@ pub struct EventSpec {
     pub occurrence: Option<Q>,
 }
 
-/// Exactly one of: `gap: CONTACT` (smallest gap of a contact pair or clearance joint, m),
-/// `contact_force: CONTACT` (total normal force over the last step, N), `distance`.
-#[derive(Debug, Deserialize)]
+/// Exactly one quantity (`probes.rs` lists them), and for the vector quantities an `axis`
+/// (a component along it; default: the magnitude) with the `frame` that carries it, or
+/// `angle_from` (the direction's angle about a joint's axis from a reference direction).
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeasureSpec {
     pub gap: Option<Name>,
     pub contact_force: Option<Name>,
+    pub impulse: Option<Name>,
     pub distance: Option<Spanned<DistanceSpec>>,
+    pub angle: Option<Name>,
+    pub displacement: Option<Name>,
+    pub velocity: Option<Spanned<PointRefSpec>>,
+    pub angular_velocity: Option<Name>,
+    pub reaction: Option<Name>,
+    pub reaction_torque: Option<Name>,
+    pub drive_effort: Option<Name>,
+    pub eccentricity: Option<Name>,
+    pub axis: Option<Vector>,
+    pub frame: Option<Name>,
+    pub angle_from: Option<Vector>,
 }
 
 /// (p_to − p_from) · axis, with the axis fixed in the world (default) or in a body's frame.
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DistanceSpec {
     pub from: PointRefSpec,
@@ -356,7 +392,7 @@ pub struct DistanceSpec {
 }
 
 /// A point fixed in a body (body frame) or in the world (`ground`).
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointRefSpec {
     pub body: Name,

@@ -9,7 +9,11 @@ use super::subject::Subject;
 use super::summary::Summary;
 use super::Study;
 use crate::integrator::{IntegrationParameters, Preset, Scheme};
+use crate::scene::document::written;
+use crate::scene::schema::{IntegratorSpec, ToleranceSpec};
+use crate::scene::Tuning;
 use rayon::prelude::*;
+use serde_saphyr::{Location, Spanned};
 use std::fmt::{self, Write};
 
 /// A setting in exponent form without the round-off of the ladder's products (1e-4, not
@@ -60,13 +64,32 @@ impl Fidelity {
         }
     }
 
-    fn apply(&self, p: &mut IntegrationParameters) {
-        p.h = self.h;
-        p.scheme = self.scheme;
-        p.theta = self.theta;
-        p.solver.tolerance = self.solver_tolerance;
-        p.projection_tolerance = self.projection_tolerance;
-        p.locate_impacts = self.locate_impacts;
+    /// The rung as a tuning layer of a scene: every setting it fixes, so that a scene
+    /// rebuilt for a sample runs at the rung too.
+    fn tuning(&self) -> Tuning {
+        let tolerance = |t: f64| {
+            Some(ToleranceSpec {
+                tolerance: Some(written(t)),
+                max_iterations: None,
+            })
+        };
+        let block = IntegratorSpec {
+            h: Some(written(self.h)),
+            theta: Some(written(self.theta)),
+            scheme: Some(Spanned::new(
+                self.scheme.name().to_string(),
+                Location::UNKNOWN,
+                Location::UNKNOWN,
+            )),
+            solver: tolerance(self.solver_tolerance),
+            projection: tolerance(self.projection_tolerance),
+            locate_impacts: Some(self.locate_impacts),
+            ..IntegratorSpec::default()
+        };
+        Tuning {
+            block,
+            origin: format!("converge rung `{}`", self.label()),
+        }
     }
 
     pub fn label(&self) -> String {
@@ -261,13 +284,19 @@ pub fn sweep(
         .iter()
         .map(|f| {
             let mut s = (**scene).clone();
-            f.apply(&mut s.params);
-            if let (Some(x), Some(r)) = (f.extrapolate, s.schedule.refine.as_mut()) {
-                r.extrapolate = x;
+            s.tune(f.tuning()).map_err(|e| e.to_string())?;
+            if let Some(x) = f.extrapolate {
+                // in the document too, so that a scene rebuilt for a sample keeps it
+                if let Some(r) = s.spec.refine.as_mut() {
+                    r.value.extrapolate = x;
+                }
+                if let Some(r) = s.schedule.refine.as_mut() {
+                    r.extrapolate = x;
+                }
             }
-            Subject::Mechanism(Box::new(s))
+            Ok(Subject::Mechanism(Box::new(s)))
         })
-        .collect();
+        .collect::<Result<_, String>>()?;
     let jobs: Vec<(usize, usize)> = (0..fidelities.len())
         .flat_map(|f| (0..samples.len()).map(move |s| (f, s)))
         .collect();

@@ -17,10 +17,11 @@ pub mod store;
 pub mod subject;
 pub mod summary;
 
+use crate::scene::document::integrator_paths;
 use crate::scene::error::line;
 use crate::scene::schema::{Name, Q};
 use crate::scene::units::{Dim, DisplayUnit};
-use crate::scene::{apply_integrator, SceneError};
+use crate::scene::{SceneError, Tuning};
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
 use schema::{DistributionSpec, StudySpec};
@@ -99,6 +100,15 @@ pub struct Study {
     pub parameters: Vec<Parameter>,
     pub outputs: Vec<Output>,
     pub output_dir: PathBuf,
+}
+
+/// The scene parameter paths (`integrator.h`, …) that a `fidelity` block sets.
+fn fidelity_keys(f: &crate::scene::IntegratorSpec) -> Vec<String> {
+    integrator_paths(f)
+        .into_iter()
+        .filter(|p| p.value.is_some())
+        .map(|p| p.path)
+        .collect()
 }
 
 /// An error at `field` (and `line`) of the study file.
@@ -411,7 +421,26 @@ impl Study {
 
         if let Some(f) = &spec.fidelity {
             match &mut subject {
-                Subject::Mechanism(scene) => apply_integrator(f, &mut scene.params, "fidelity")?,
+                Subject::Mechanism(scene) => {
+                    // the block applies on top of the scene's integrator block, sampled
+                    // values included: a key set both ways would silently lose the sample
+                    let overridden = fidelity_keys(f);
+                    if let Some((i, p)) = parameters
+                        .iter()
+                        .enumerate()
+                        .find(|(_, p)| overridden.contains(&p.path))
+                    {
+                        return Err(at(
+                            line(&spec.parameters[i].path),
+                            format!("parameters[{i}].path"),
+                            format!("`{}` is sampled, but the study's `fidelity` block sets it for every sample; drop one of the two", p.path),
+                        ));
+                    }
+                    scene.tune(Tuning {
+                        block: f.clone(),
+                        origin: "fidelity".into(),
+                    })?
+                }
                 Subject::Function(_) => {
                     return Err(at(
                         None,

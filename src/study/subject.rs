@@ -142,12 +142,10 @@ impl Subject {
                 (values, Diagnostics::default(), error)
             }
             Subject::Mechanism(scene) => {
-                let mut scene = (**scene).clone();
-                for &(path, v) in parameters {
-                    if let Err(e) = scene.set_parameter(path, v) {
-                        return (Vec::new(), Diagnostics::default(), Some(e));
-                    }
-                }
+                let scene = match scene.with_parameters(parameters) {
+                    Ok(s) => s,
+                    Err(e) => return (Vec::new(), Diagnostics::default(), Some(e)),
+                };
                 let sim = match scene.simulation() {
                     Ok(s) => s,
                     Err(e) => return (Vec::new(), Diagnostics::default(), Some(e.to_string())),

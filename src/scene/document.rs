@@ -1,0 +1,776 @@
+//! Parameter paths: every number of a scene document, addressed the way the document is
+//! written. List entries go by their `name` (by index where they have none), vector
+//! components by x, y, z (a quaternion's by w, x, y, z, longer lists and table cells by
+//! index): `joints.D.anchor.x`, `forces.0.spring.stiffness`,
+//! `bodies.hook.shape.box.size.y`, `integrator.h`, `settle.until`.
+//!
+//! A study (or `--set`) writes its values into the parsed document, which is then built
+//! and validated like a file: a parameter needs no code of its own, and a value the
+//! scene refuses fails with the message and line of the field it was written to.
+//!
+//! Each part of the schema lists its numbers here with their dimension, in one
+//! [`Node::visit`]; two visitors walk them: one lists every path, the other finds one.
+
+use super::schema::*;
+use super::units::{Dim, Quantity};
+use serde_saphyr::{Location, Spanned};
+
+/// A parameter path of a scene with the dimension of its value and its value in the
+/// document (`None` where the document leaves it out and a default applies).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterPath {
+    pub path: String,
+    pub dim: Dim,
+    pub value: Option<f64>,
+}
+
+/// Something the walk reaches: a part of the document that holds numbers.
+pub(super) trait Node {
+    fn visit(&mut self, v: &mut dyn Visitor);
+}
+
+/// What walks the document. The parts call it for each number they hold, and for the
+/// parts below them.
+pub(super) trait Visitor {
+    /// An optional number.
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim);
+    /// A required number.
+    fn required(&mut self, name: &str, q: &mut Q, dim: Dim);
+    /// An optional vector, `default` where it is left out (`None`: none makes sense).
+    fn vector(&mut self, name: &str, v: &mut Option<Vector>, dim: Dim, default: Option<&[f64]>);
+    /// A required vector.
+    fn required_vector(&mut self, name: &str, v: &mut Vector, dim: Dim);
+    /// A table of rows whose columns have the dimensions `dims`.
+    fn table(&mut self, name: &str, t: &mut Option<Spanned<Vec<Vec<Quantity>>>>, dims: &[Dim]);
+    /// A part below this one.
+    fn node(&mut self, name: &str, node: &mut dyn Node);
+    /// A list of parts, each by its name (or index where it has none).
+    fn list(&mut self, name: &str, items: Vec<(String, &mut dyn Node)>);
+    /// A field this part does not have in its present form, and why (a clearance on an
+    /// ideal joint): a path to it gets the reason instead of "unknown".
+    fn absent(&mut self, name: &str, why: &str);
+}
+
+/// A quantity written by a parameter: SI, no unit (the path's dimension is known).
+pub fn written(value: f64) -> Q {
+    Spanned::new(
+        Quantity {
+            si: value,
+            dim: None,
+        },
+        Location::UNKNOWN,
+        Location::UNKNOWN,
+    )
+}
+
+/// The names of a vector's components: x, y, z for three, w, x, y, z for four, else the
+/// indices.
+fn component_names(len: usize) -> Vec<String> {
+    match len {
+        3 => ["x", "y", "z"].map(String::from).to_vec(),
+        4 => ["w", "x", "y", "z"].map(String::from).to_vec(),
+        n => (0..n).map(|i| i.to_string()).collect(),
+    }
+}
+
+/// Collects every path.
+struct Lister {
+    prefix: Vec<String>,
+    out: Vec<ParameterPath>,
+}
+
+impl Lister {
+    fn path(&self, name: &str) -> String {
+        let mut p = self.prefix.join(".");
+        if !p.is_empty() {
+            p.push('.');
+        }
+        p + name
+    }
+
+    fn push(&mut self, path: String, dim: Dim, value: Option<f64>) {
+        self.out.push(ParameterPath { path, dim, value });
+    }
+}
+
+impl Visitor for Lister {
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim) {
+        self.push(self.path(name), dim, q.as_ref().map(|q| q.value.si));
+    }
+
+    fn required(&mut self, name: &str, q: &mut Q, dim: Dim) {
+        self.push(self.path(name), dim, Some(q.value.si));
+    }
+
+    fn vector(&mut self, name: &str, v: &mut Option<Vector>, dim: Dim, default: Option<&[f64]>) {
+        match v {
+            Some(v) => self.required_vector(name, v, dim),
+            None => {
+                if let Some(d) = default {
+                    for c in component_names(d.len()) {
+                        self.push(self.path(&format!("{name}.{c}")), dim, None);
+                    }
+                }
+            }
+        }
+    }
+
+    fn required_vector(&mut self, name: &str, v: &mut Vector, dim: Dim) {
+        for (c, q) in component_names(v.value.len()).iter().zip(&v.value) {
+            self.push(self.path(&format!("{name}.{c}")), dim, Some(q.si));
+        }
+    }
+
+    fn table(&mut self, name: &str, t: &mut Option<Spanned<Vec<Vec<Quantity>>>>, dims: &[Dim]) {
+        let Some(t) = t else { return };
+        for (r, row) in t.value.iter().enumerate() {
+            for (c, q) in row.iter().enumerate() {
+                if let Some(&dim) = dims.get(c) {
+                    self.push(self.path(&format!("{name}.{r}.{c}")), dim, Some(q.si));
+                }
+            }
+        }
+    }
+
+    fn node(&mut self, name: &str, node: &mut dyn Node) {
+        self.prefix.push(name.to_string());
+        node.visit(self);
+        self.prefix.pop();
+    }
+
+    fn list(&mut self, name: &str, items: Vec<(String, &mut dyn Node)>) {
+        self.prefix.push(name.to_string());
+        for (key, node) in items {
+            self.node(&key, node);
+        }
+        self.prefix.pop();
+    }
+
+    fn absent(&mut self, _name: &str, _why: &str) {}
+}
+
+/// Finds one path and, when given a value, writes it there.
+struct Finder<'p> {
+    /// The path's segments.
+    target: &'p [&'p str],
+    /// How many segments the walk has matched.
+    depth: usize,
+    value: Option<f64>,
+    /// The dimension of the value at the path, once found; or why the path names no
+    /// number although it names a part of the document.
+    found: Option<Result<Dim, String>>,
+}
+
+impl Finder<'_> {
+    /// The segments below `name`, if `name` is the next segment of the target.
+    fn below(&self, name: &str) -> Option<&[&str]> {
+        (self.found.is_none() && self.target.get(self.depth) == Some(&name))
+            .then(|| &self.target[self.depth + 1..])
+    }
+
+    fn found(&mut self, r: Result<Dim, String>) {
+        self.found = Some(r);
+    }
+
+    fn set(&self, q: &mut Quantity) {
+        if let Some(v) = self.value {
+            *q = Quantity { si: v, dim: None };
+        }
+    }
+
+    /// Component `c` of a vector of `len` components, by name.
+    fn component(c: &str, len: usize) -> Option<usize> {
+        component_names(len).iter().position(|n| n == c)
+    }
+}
+
+impl Visitor for Finder<'_> {
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim) {
+        if self.below(name) == Some(&[]) {
+            if let Some(v) = self.value {
+                *q = Some(written(v));
+            }
+            self.found(Ok(dim));
+        }
+    }
+
+    fn required(&mut self, name: &str, q: &mut Q, dim: Dim) {
+        if self.below(name) == Some(&[]) {
+            self.set(&mut q.value);
+            self.found(Ok(dim));
+        }
+    }
+
+    fn vector(&mut self, name: &str, v: &mut Option<Vector>, dim: Dim, default: Option<&[f64]>) {
+        if self.below(name).is_none() {
+            return;
+        }
+        if v.is_none() {
+            match default {
+                Some(d) => {
+                    // written with its default, then set like a written vector
+                    let mut filled = Spanned::new(
+                        d.iter().map(|&si| Quantity { si, dim: None }).collect(),
+                        Location::UNKNOWN,
+                        Location::UNKNOWN,
+                    );
+                    self.required_vector(name, &mut filled, dim);
+                    if self.value.is_some() && matches!(self.found, Some(Ok(_))) {
+                        *v = Some(filled);
+                    }
+                }
+                None => self.found(Err(format!(
+                    "the scene does not give `{}`; write it in the scene to vary it",
+                    self.target[..=self.depth].join(".")
+                ))),
+            }
+            return;
+        }
+        self.required_vector(name, v.as_mut().expect("given"), dim);
+    }
+
+    fn required_vector(&mut self, name: &str, v: &mut Vector, dim: Dim) {
+        let Some(rest) = self.below(name) else { return };
+        let len = v.value.len();
+        match rest {
+            [c] => match Finder::component(c, len) {
+                Some(k) => {
+                    self.set(&mut v.value[k]);
+                    self.found(Ok(dim));
+                }
+                None => self.found(Err(format!(
+                    "`{name}` has the components {}",
+                    component_names(len).join(", ")
+                ))),
+            },
+            _ => self.found(Err(format!(
+                "name a component of `{name}`: {}",
+                component_names(len).join(", ")
+            ))),
+        }
+    }
+
+    fn table(&mut self, name: &str, t: &mut Option<Spanned<Vec<Vec<Quantity>>>>, dims: &[Dim]) {
+        let Some(rest) = self.below(name) else { return };
+        let Some(t) = t else { return };
+        let cell = match rest {
+            [r, c] => r.parse::<usize>().ok().zip(c.parse::<usize>().ok()),
+            _ => None,
+        };
+        match cell {
+            Some((r, c)) if r < t.value.len() && c < t.value[r].len() && c < dims.len() => {
+                self.set(&mut t.value[r][c]);
+                self.found(Ok(dims[c]));
+            }
+            _ => self.found(Err(format!(
+                "`{name}` is a table: name a row and a column, `{name}.ROW.COLUMN`, within its {} rows",
+                t.value.len()
+            ))),
+        }
+    }
+
+    fn node(&mut self, name: &str, node: &mut dyn Node) {
+        if self.below(name).is_some() {
+            self.depth += 1;
+            node.visit(self);
+            self.depth -= 1;
+        }
+    }
+
+    fn list(&mut self, name: &str, items: Vec<(String, &mut dyn Node)>) {
+        if self.below(name).is_none() {
+            return;
+        }
+        self.depth += 1;
+        for (key, node) in items {
+            self.node(&key, node);
+        }
+        self.depth -= 1;
+    }
+
+    fn absent(&mut self, name: &str, why: &str) {
+        if self.below(name).is_some() {
+            self.found(Err(why.to_string()));
+        }
+    }
+}
+
+/// The key of list entry `i`: its name, or its index where it has none.
+fn key(name: Option<&Name>, i: usize) -> String {
+    name.map_or(i.to_string(), |n| n.value.clone())
+}
+
+impl Node for SceneSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.required("duration", &mut self.duration, Dim::TIME);
+        v.vector(
+            "gravity",
+            &mut self.gravity,
+            Dim::ACCELERATION,
+            Some(&[0.0, 0.0, -9.81]),
+        );
+        v.node("integrator", &mut self.integrator);
+        v.list(
+            "bodies",
+            self.bodies
+                .iter_mut()
+                .map(|b| (b.name.value.clone(), b as &mut dyn Node))
+                .collect(),
+        );
+        v.list(
+            "contacts",
+            self.contacts
+                .iter_mut()
+                .enumerate()
+                .map(|(i, c)| {
+                    let k = c.name.clone().unwrap_or_else(|| i.to_string());
+                    (k, c as &mut dyn Node)
+                })
+                .collect(),
+        );
+        v.list(
+            "forces",
+            self.forces
+                .iter_mut()
+                .enumerate()
+                .map(|(i, f)| (key(f.name.as_ref(), i), f as &mut dyn Node))
+                .collect(),
+        );
+        v.list(
+            "joints",
+            self.joints
+                .iter_mut()
+                .map(|j| (j.name.value.clone(), j as &mut dyn Node))
+                .collect(),
+        );
+        v.node("record", &mut self.record);
+        if let Some(s) = &mut self.settle {
+            v.node("settle", &mut s.value);
+        }
+        if let Some(r) = &mut self.refine {
+            v.node("refine", &mut r.value);
+        }
+    }
+}
+
+impl Node for IntegratorSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.scalar("h", &mut self.h, Dim::TIME);
+        v.scalar("theta", &mut self.theta, Dim::NONE);
+        v.scalar("gamma", &mut self.gamma, Dim::NONE);
+        v.scalar(
+            "activation_margin",
+            &mut self.activation_margin,
+            Dim::LENGTH,
+        );
+        for (name, t) in [
+            ("solver", &mut self.solver),
+            ("newton", &mut self.newton),
+            ("projection", &mut self.projection),
+        ] {
+            let t = t.get_or_insert_with(ToleranceSpec::default);
+            v.node(name, t);
+        }
+    }
+}
+
+impl Node for ToleranceSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.scalar("tolerance", &mut self.tolerance, Dim::NONE);
+        v.scalar("max_iterations", &mut self.max_iterations, Dim::NONE);
+    }
+}
+
+impl Node for RecordSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.scalar("every", &mut self.every, Dim::NONE);
+    }
+}
+
+impl Node for SettleSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.required("until", &mut self.until, Dim::TIME);
+        v.scalar("damping", &mut self.damping, Dim::ANGULAR_VELOCITY);
+        v.scalar("h", &mut self.h, Dim::TIME);
+        v.scalar("tolerance", &mut self.tolerance, Dim::NONE);
+    }
+}
+
+impl Node for RefineSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.required("for", &mut self.duration, Dim::TIME);
+        v.required("h", &mut self.h, Dim::TIME);
+    }
+}
+
+const ZERO: [f64; 3] = [0.0; 3];
+const Z_AXIS: [f64; 3] = [0.0, 0.0, 1.0];
+
+/// A part given by a closure over its fields: the fields of an enum variant, below its
+/// kind's name (`shape.box.size.x`).
+struct With<F: FnMut(&mut dyn Visitor)>(F);
+
+impl<F: FnMut(&mut dyn Visitor)> Node for With<F> {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        (self.0)(v)
+    }
+}
+
+impl Node for BodySpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.scalar("mass", &mut self.mass, Dim::MASS);
+        v.vector("inertia", &mut self.inertia, Dim::INERTIA, None);
+        if let Some(s) = &mut self.shape {
+            v.node("shape", &mut s.value);
+        }
+        v.vector("position", &mut self.position, Dim::LENGTH, Some(&ZERO));
+        if let Some(o) = &mut self.orientation {
+            v.node("orientation", &mut o.value);
+        }
+        v.vector("velocity", &mut self.velocity, Dim::VELOCITY, Some(&ZERO));
+        v.vector(
+            "angular_velocity",
+            &mut self.angular_velocity,
+            Dim::ANGULAR_VELOCITY,
+            Some(&ZERO),
+        );
+    }
+}
+
+impl Node for ShapeSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        match self {
+            ShapeSpec::Box { size } => v.node(
+                "box",
+                &mut With(|v: &mut dyn Visitor| v.required_vector("size", size, Dim::LENGTH)),
+            ),
+            ShapeSpec::Cylinder { radius, length } => v.node(
+                "cylinder",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("radius", radius, Dim::LENGTH);
+                    v.required("length", length, Dim::LENGTH);
+                }),
+            ),
+            ShapeSpec::Sphere { radius } => v.node(
+                "sphere",
+                &mut With(|v: &mut dyn Visitor| v.required("radius", radius, Dim::LENGTH)),
+            ),
+        }
+    }
+}
+
+impl Node for OrientationSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.vector("axis", &mut self.axis, Dim::NONE, None);
+        v.scalar("angle", &mut self.angle, Dim::NONE);
+        v.vector("quaternion", &mut self.quaternion, Dim::NONE, None);
+        v.vector(
+            "rotation_vector",
+            &mut self.rotation_vector,
+            Dim::NONE,
+            None,
+        );
+    }
+}
+
+impl Node for ContactSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.node("shape", &mut self.shape.value);
+        v.node("against_shape", &mut self.against_shape.value);
+        v.scalar("mu", &mut self.mu, Dim::NONE);
+        v.scalar("e", &mut self.e, Dim::NONE);
+    }
+}
+
+impl Node for PrimitiveSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        const L: Dim = Dim::LENGTH;
+        match self {
+            PrimitiveSpec::Sphere { radius, center } => v.node(
+                "sphere",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("radius", radius, L);
+                    v.vector("center", center, L, Some(&ZERO));
+                }),
+            ),
+            PrimitiveSpec::Plane { point, normal } => v.node(
+                "plane",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.vector("point", point, L, Some(&ZERO));
+                    v.required_vector("normal", normal, Dim::NONE);
+                }),
+            ),
+            PrimitiveSpec::Box {
+                size,
+                center,
+                orientation,
+            } => v.node(
+                "box",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required_vector("size", size, L);
+                    v.vector("center", center, L, Some(&ZERO));
+                    if let Some(o) = orientation {
+                        v.node("orientation", &mut o.value);
+                    }
+                }),
+            ),
+            PrimitiveSpec::Cylinder {
+                radius,
+                length,
+                axis,
+                center,
+            } => v.node(
+                "cylinder",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("radius", radius, L);
+                    v.required("length", length, L);
+                    v.vector("axis", axis, Dim::NONE, Some(&Z_AXIS));
+                    v.vector("center", center, L, Some(&ZERO));
+                }),
+            ),
+            PrimitiveSpec::Capsule {
+                radius,
+                length,
+                axis,
+                center,
+            } => v.node(
+                "capsule",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("radius", radius, L);
+                    v.required("length", length, L);
+                    v.vector("axis", axis, Dim::NONE, Some(&Z_AXIS));
+                    v.vector("center", center, L, Some(&ZERO));
+                }),
+            ),
+            PrimitiveSpec::Point { position } => v.node(
+                "point",
+                &mut With(|v: &mut dyn Visitor| v.required_vector("position", position, L)),
+            ),
+        }
+    }
+}
+
+impl Node for ForceSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        if let Some(s) = &mut self.spring {
+            v.node("spring", &mut s.value);
+        }
+        if let Some(s) = &mut self.torsional_spring {
+            v.node("torsional_spring", &mut s.value);
+        }
+        if let Some(l) = &mut self.load {
+            v.node("load", &mut l.value);
+        }
+    }
+}
+
+impl Node for SpringSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.vector("point_a", &mut self.point_a, Dim::LENGTH, Some(&ZERO));
+        v.vector("point_b", &mut self.point_b, Dim::LENGTH, Some(&ZERO));
+        v.required("stiffness", &mut self.stiffness, Dim::STIFFNESS);
+        v.scalar("damping", &mut self.damping, Dim::DAMPING);
+        v.scalar("rest_length", &mut self.rest_length, Dim::LENGTH);
+        v.scalar("preload", &mut self.preload, Dim::FORCE);
+        v.scalar("ramp", &mut self.ramp, Dim::TIME);
+    }
+}
+
+impl Node for TorsionalSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.required_vector("axis", &mut self.axis, Dim::NONE);
+        v.required("stiffness", &mut self.stiffness, Dim::TORQUE);
+        v.scalar("damping", &mut self.damping, Dim::ROTATIONAL_DAMPING);
+        v.scalar("preload", &mut self.preload, Dim::TORQUE);
+        v.scalar("rest_angle", &mut self.rest_angle, Dim::NONE);
+        v.scalar("free_angle", &mut self.free_angle, Dim::NONE);
+        v.scalar("ramp", &mut self.ramp, Dim::TIME);
+    }
+}
+
+impl Node for LoadSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        v.vector("point", &mut self.point, Dim::LENGTH, Some(&ZERO));
+        v.vector("force", &mut self.force, Dim::FORCE, None);
+        v.table(
+            "force_table",
+            &mut self.force_table,
+            &[Dim::TIME, Dim::FORCE, Dim::FORCE, Dim::FORCE],
+        );
+        v.vector("torque", &mut self.torque, Dim::TORQUE, None);
+        v.table(
+            "torque_table",
+            &mut self.torque_table,
+            &[Dim::TIME, Dim::TORQUE, Dim::TORQUE, Dim::TORQUE],
+        );
+    }
+}
+
+impl Node for JointSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        const L: Dim = Dim::LENGTH;
+        // the joint coordinate: an angle for revolute joints, a length for prismatic ones
+        let prismatic = self.kind.value == "prismatic";
+        let (coordinate, rate, effort) = if prismatic {
+            (L, Dim::VELOCITY, Dim::FORCE)
+        } else {
+            (Dim::NONE, Dim::ANGULAR_VELOCITY, Dim::TORQUE)
+        };
+        v.vector("anchor", &mut self.anchor, L, None);
+        v.vector("axis", &mut self.axis, Dim::NONE, None);
+        v.vector("anchor_a", &mut self.anchor_a, L, None);
+        v.vector("anchor_b", &mut self.anchor_b, L, None);
+        v.vector("axis_a", &mut self.axis_a, Dim::NONE, None);
+        v.vector("axis_b", &mut self.axis_b, Dim::NONE, None);
+        if let Some(d) = &mut self.drive {
+            let d = &mut d.value;
+            v.node(
+                "drive",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.scalar("velocity", &mut d.velocity, rate);
+                    v.table(
+                        "position_table",
+                        &mut d.position_table,
+                        &[Dim::TIME, coordinate],
+                    );
+                    v.scalar("effort", &mut d.effort, effort);
+                    v.table("effort_table", &mut d.effort_table, &[Dim::TIME, effort]);
+                }),
+            );
+        }
+        if let Some(l) = &mut self.limits {
+            let l = &mut l.value;
+            v.node(
+                "limits",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("lower", &mut l.lower, coordinate);
+                    v.required("upper", &mut l.upper, coordinate);
+                    v.scalar("e", &mut l.e, Dim::NONE);
+                }),
+            );
+        }
+        let clearance = self.kind.value == "revolute-clearance";
+        for (name, q, dim) in [
+            ("clearance", &mut self.clearance, L),
+            ("journal_radius", &mut self.journal_radius, L),
+            ("bore_length", &mut self.bore_length, L),
+            ("axial_play", &mut self.axial_play, L),
+            ("flange_radius", &mut self.flange_radius, L),
+            ("rim_points", &mut self.rim_points, Dim::NONE),
+            ("mu", &mut self.mu, Dim::NONE),
+            ("e", &mut self.e, Dim::NONE),
+        ] {
+            if clearance {
+                v.scalar(name, q, dim);
+            } else {
+                let why = format!(
+                    "joint `{}` is an ideal {} joint, which has no `{name}`; make it `revolute-clearance` to vary it",
+                    self.name.value, self.kind.value
+                );
+                v.absent(name, &why);
+            }
+        }
+        let initial = self.initial.get_or_insert_with(|| {
+            Spanned::new(InitialSpec::default(), Location::UNKNOWN, Location::UNKNOWN)
+        });
+        let i = &mut initial.value;
+        v.node(
+            "initial",
+            &mut With(|v: &mut dyn Visitor| {
+                if clearance {
+                    v.vector("eccentricity", &mut i.eccentricity, L, Some(&ZERO));
+                } else if prismatic {
+                    v.scalar("position", &mut i.position, L);
+                    v.scalar("speed", &mut i.speed, Dim::VELOCITY);
+                } else {
+                    v.scalar("angle", &mut i.angle, Dim::NONE);
+                    v.scalar("rate", &mut i.rate, Dim::ANGULAR_VELOCITY);
+                }
+            }),
+        );
+    }
+}
+
+/// The paths of an `integrator` block's numbers (`integrator.h`, …), with the values it
+/// gives.
+pub fn integrator_paths(block: &IntegratorSpec) -> Vec<ParameterPath> {
+    let mut lister = Lister {
+        prefix: vec!["integrator".into()],
+        out: Vec::new(),
+    };
+    block.clone().visit(&mut lister);
+    lister.out
+}
+
+/// Every parameter path of `spec`, in document order.
+pub(super) fn paths(spec: &SceneSpec) -> Vec<ParameterPath> {
+    let mut lister = Lister {
+        prefix: Vec::new(),
+        out: Vec::new(),
+    };
+    spec.clone().visit(&mut lister);
+    lister.out
+}
+
+/// The dimension of the number at `path`, writing `value` there if given; the error says
+/// why the path names no number, with the nearest paths there are.
+pub(super) fn find(spec: &mut SceneSpec, path: &str, value: Option<f64>) -> Result<Dim, String> {
+    let segments: Vec<&str> = path.split('.').collect();
+    let mut finder = Finder {
+        target: &segments,
+        depth: 0,
+        value,
+        found: None,
+    };
+    spec.visit(&mut finder);
+    match finder.found {
+        Some(Ok(dim)) => Ok(dim),
+        Some(Err(why)) => Err(format!("parameter `{path}`: {why}")),
+        None => Err(unknown(spec, path)),
+    }
+}
+
+/// The error for a path that names nothing: the closest paths of the scene.
+fn unknown(spec: &SceneSpec, path: &str) -> String {
+    let all = paths(spec);
+    let mut near: Vec<(usize, &str)> = all
+        .iter()
+        .map(|p| (edit_distance(path, &p.path), p.path.as_str()))
+        .collect();
+    near.sort();
+    let list: Vec<&str> = near.iter().take(5).map(|(_, p)| *p).collect();
+    format!(
+        "unknown parameter path `{path}`; the nearest are: {} (`mc-study paths SCENE` lists them all)",
+        list.join(", ")
+    )
+}
+
+/// Levenshtein distance (characters).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diag = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let next = (row[j + 1] + 1)
+                .min(row[j] + 1)
+                .min(diag + usize::from(ca != cb));
+            diag = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_counts_edits() {
+        assert_eq!(edit_distance("anchor", "anchr"), 1);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
+}
