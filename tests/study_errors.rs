@@ -46,7 +46,7 @@ fn unknown_parameter_path() {
         &e,
         "parameters[0].path",
         line_of("contacts.floor.e"),
-        "no such contact (contacts: floor)",
+        "unknown parameter path `contacts.flor.e`; the nearest are: contacts.floor.e",
     );
     let e = error_of(
         "field",
@@ -57,8 +57,18 @@ fn unknown_parameter_path() {
         &e,
         "parameters[0].path",
         line_of("contacts.floor.e"),
-        "unknown field (mu, e)",
+        "unknown parameter path `contacts.floor.colour`",
     );
+    // the nearest paths of a wrong component, and a path that stops at a vector
+    let e = error_of("axis", "path: bodies.ball.position.z", "path: bodies.ball.position.q");
+    assert_names(
+        &e,
+        "parameters[1].path",
+        line_of("bodies.ball.position.z"),
+        "`position` has the components x, y, z",
+    );
+    let e = error_of("vector", "path: bodies.ball.position.z", "path: bodies.ball.position");
+    assert!(e.contains("name a component of `position`: x, y, z"), "{e}");
 }
 
 #[test]
