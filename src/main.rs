@@ -163,6 +163,12 @@ enum Command {
         #[arg(long)]
         submit: bool,
     },
+    /// Lists every parameter path of a scene (the numbers a study or `--set` can vary),
+    /// with its unit and its value in the scene ("default" where the scene leaves it out).
+    Paths {
+        /// Scene YAML file.
+        scene: PathBuf,
+    },
     /// Runs one simulation of a scene and prints its diagnostics (steps, penetration,
     /// solver and Newton failures, work and wall time per step) and its probes; on request
     /// writes the trajectory and draws the mechanism.
@@ -354,7 +360,12 @@ fn converge(args: ConvergeArgs) -> Result<()> {
             );
             print!("{}", conv.fidelities[f].yaml());
         }
-        None => println!("no fidelity of the ladder meets the target {target}; refine h"),
+        None if conv.step_dependent().len() == conv.outputs.len() => println!(
+            "every output depends on the step size (see above): no fidelity can be recommended"
+        ),
+        None => println!(
+            "no fidelity of the ladder meets the target {target} on the outputs that converge; refine h"
+        ),
     }
     Ok(())
 }
@@ -407,6 +418,11 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
         eprintln!("\ninterrupt: finishing the samples under way and writing them (Ctrl-C again to quit at once)");
     })
     .context("installing the Ctrl-C handler")?;
+    for o in &study.outputs {
+        if let Some(c) = &o.caution {
+            eprintln!("caution: {c}");
+        }
+    }
     let (a, b) = opts.shard.range(study.runs());
     eprintln!(
         "study {} ({} design, {} runs, seed {}), shard {}/{} = samples {a}–{} → {}",
@@ -559,6 +575,12 @@ fn main() -> std::process::ExitCode {
                     m.missing.count(),
                     m.missing.describe(8)
                 );
+            }
+        }),
+        Command::Paths { scene } => Scene::load(scene).map_err(Into::into).map(|s| {
+            for p in s.parameters() {
+                let value = p.value.map_or("default".into(), |v| format!("{v}"));
+                println!("{:<48} {:<8} {value}", p.path, p.dim.si_unit());
             }
         }),
         Command::Status { out, shards } => status(out, *shards).map(|s| print!("{s}")),

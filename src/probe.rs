@@ -2,9 +2,12 @@
 //! online while the simulation steps, so that a sample keeps a few numbers and no trajectory.
 
 use crate::integrator::Simulation;
+use crate::mechanics::force::TorsionalSpring;
+use crate::mechanics::joint::Drive;
 use crate::mechanics::{BodyRef, Pose};
 use crate::scene::units::DisplayUnit;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3x6, Vector3, Vector6};
+use std::ops::Range;
 
 /// A scalar read off the state after a step.
 #[derive(Clone, Debug, PartialEq)]
@@ -13,6 +16,9 @@ pub enum Measure {
     Gap(Vec<usize>),
     /// Total normal impulse of these candidates over the last step divided by h (N).
     ContactForce(Vec<usize>),
+    /// Total normal impulse of these candidates over the last step (N·s): a step's impulse
+    /// converges to the impact's as h falls, where the force (impulse / h) grows as 1/h.
+    Impulse(Vec<usize>),
     /// (p_to − p_from) · axis; the axis is fixed in `frame` (world when `None`).
     Distance {
         from: (BodyRef, Vector3<f64>),
@@ -20,6 +26,163 @@ pub enum Measure {
         axis: Vector3<f64>,
         frame: BodyRef,
     },
+    /// An ideal joint's coordinate (revolute: angle, rad; prismatic: displacement, m), from
+    /// the written configuration.
+    Coordinate(usize),
+    /// The angle of one body relative to another about an axis fixed in the first, from
+    /// the written configuration (a revolute-clearance joint's angle), rad.
+    RelativeAngle(RelativeAngle),
+    /// Velocity of a material point of a body (m/s), as `part` of the world vector.
+    PointVelocity {
+        body: usize,
+        point: Vector3<f64>,
+        part: Part,
+    },
+    /// Angular velocity of a body (rad/s), as `part` of the world vector.
+    AngularVelocity { body: usize, part: Part },
+    /// What a joint transmits over the last step, divided by h: the force (N), or the
+    /// torque about the joint's centre (N·m), that body_a exerts on body_b.
+    Reaction {
+        through: Transmission,
+        torque: bool,
+        part: Part,
+    },
+    /// The torque (N·m) or force (N) a joint's drive applies to its body_b: a position
+    /// drive's multiplier over the last step / h, an effort drive's prescribed value.
+    DriveEffort(usize),
+    /// A clearance joint's journal offset from the bore axis, at the bore's mid-plane (m),
+    /// as `part` of the world vector.
+    Eccentricity { joint: usize, part: Part },
+}
+
+/// The angle gauge of a torsional spring, without the spring: zero in the written
+/// configuration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelativeAngle(pub TorsionalSpring);
+
+/// What carries a joint reaction.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Transmission {
+    /// An ideal joint: its structural rows (the drive row excluded) among the joints' rows,
+    /// and its stops' contact candidates.
+    Joint {
+        joint: usize,
+        rows: Range<usize>,
+        stops: Vec<usize>,
+    },
+    /// A revolute-clearance joint: all its contact candidates.
+    Clearance {
+        joint: usize,
+        candidates: Vec<usize>,
+    },
+}
+
+/// Which number of a vector a measure gives.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Part {
+    Magnitude,
+    /// The component along `axis`, fixed in `frame` (world when `None`).
+    Along {
+        axis: Vector3<f64>,
+        frame: BodyRef,
+    },
+    /// The angle (rad, in (−π, π]) of the vector's projection on the plane normal to
+    /// `about` (a unit vector of body `about_body`'s frame: the joint's axis), measured from
+    /// `reference` (fixed in `frame`) in the positive sense about `about`.
+    Angle {
+        reference: Vector3<f64>,
+        frame: BodyRef,
+        about: (BodyRef, Vector3<f64>),
+    },
+}
+
+impl Part {
+    /// The number this part takes of the world vector `v`.
+    fn of(&self, v: &Vector3<f64>, poses: &[Pose]) -> f64 {
+        let dir = |frame: &BodyRef, x: &Vector3<f64>| match frame {
+            Some(b) => poses[*b].dir(x),
+            None => *x,
+        };
+        match self {
+            Part::Magnitude => v.norm(),
+            Part::Along { axis, frame } => v.dot(&dir(frame, axis)),
+            Part::Angle {
+                reference,
+                frame,
+                about: (body, axis),
+            } => {
+                let n = dir(body, axis);
+                let r = dir(frame, reference);
+                let (r, v) = (r - n * n.dot(&r), v - n * n.dot(v));
+                n.dot(&r.cross(&v)).atan2(r.dot(&v))
+            }
+        }
+    }
+}
+
+/// The generalized force (world force, body-frame torque about the centre of mass) on
+/// body `b` of an impulse `p` through the 3×6 (or 1×6) Jacobian block `g`.
+fn add_impulse(w: &mut Vector6<f64>, g: &Matrix3x6<f64>, p: &Vector3<f64>) {
+    *w += g.transpose() * p;
+}
+
+/// The force and the torque about `centre` (both world) that `through` transmits to its
+/// joint's body_b over the last step, divided by h.
+fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vector3<f64>) {
+    let m = &sim.model;
+    let poses = &sim.state.poses;
+    let (a, b, centre) = match through {
+        Transmission::Joint { joint, .. } => {
+            let j = &m.joints[*joint];
+            let at = |r: BodyRef, p: &Vector3<f64>| r.map_or(*p, |i| poses[i].point(p));
+            (j.a, j.b, at(j.b, &j.anchor_b))
+        }
+        Transmission::Clearance { joint, .. } => {
+            let j = &m.clearance_joints[*joint];
+            (j.bore_body, j.journal_body, j.centre(poses))
+        }
+    };
+    // the body the wrench is read on: b, or a (the wrench reversed) where b is the ground
+    let (target, sign) = match b {
+        Some(i) => (i, 1.0),
+        None => (a.expect("a joint has a body"), -1.0),
+    };
+    let mut w = Vector6::zeros();
+    let contact = |w: &mut Vector6<f64>, c: usize| {
+        let cp = &sim.contact_points()[c];
+        let p = sim.impulses()[c];
+        if cp.body1 == Some(target) {
+            add_impulse(w, &cp.g1, &p);
+        }
+        if cp.body2 == Some(target) {
+            add_impulse(w, &cp.g2, &p);
+        }
+    };
+    match through {
+        Transmission::Joint { joint, rows, stops } => {
+            let q = sim.joint_impulses();
+            if q.len() >= rows.end {
+                let mut all = Vec::new();
+                m.joints[*joint].rows(sim.state.t, poses, &mut all);
+                for (row, qr) in all.iter().zip(&q[rows.clone()]) {
+                    for (i, g) in row.a.iter().chain(row.b.iter()) {
+                        if *i == target {
+                            w += g.transpose() * *qr;
+                        }
+                    }
+                }
+            }
+            stops.iter().for_each(|&c| contact(&mut w, c));
+        }
+        Transmission::Clearance { candidates, .. } => {
+            candidates.iter().for_each(|&c| contact(&mut w, c))
+        }
+    }
+    let pose = &poses[target];
+    let force = w.fixed_rows::<3>(0) / sim.h();
+    let torque_g = pose.p * w.fixed_rows::<3>(3) / sim.h();
+    let torque = torque_g + (pose.x - centre).cross(&force);
+    (force * sign, torque * sign)
 }
 
 fn world_point(poses: &[Pose], (body, p): &(BodyRef, Vector3<f64>)) -> Vector3<f64> {
@@ -38,6 +201,47 @@ impl Measure {
                 .fold(f64::INFINITY, f64::min),
             Measure::ContactForce(ids) => {
                 ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.h()
+            }
+            Measure::Impulse(ids) => ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>(),
+            Measure::Coordinate(j) => sim.model.joints[*j].coordinate(&sim.state.poses),
+            Measure::RelativeAngle(g) => g.0.angle(&sim.state.poses).0,
+            Measure::PointVelocity { body, point, part } => {
+                let pose = &sim.state.poses[*body];
+                let tw = sim.state.twist(*body);
+                let omega = pose.p * tw.fixed_rows::<3>(3);
+                let v = tw.fixed_rows::<3>(0) + omega.cross(&(pose.dir(point)));
+                part.of(&v, &sim.state.poses)
+            }
+            Measure::AngularVelocity { body, part } => {
+                let omega = sim.state.poses[*body].p * sim.state.twist(*body).fixed_rows::<3>(3);
+                part.of(&omega, &sim.state.poses)
+            }
+            Measure::Reaction {
+                through,
+                torque,
+                part,
+            } => {
+                let (f, t) = reaction(sim, through);
+                part.of(if *torque { &t } else { &f }, &sim.state.poses)
+            }
+            Measure::DriveEffort(j) => {
+                let joint = &sim.model.joints[*j];
+                match &joint.drive {
+                    Some(Drive::Effort(profile)) => profile.value(sim.state.t),
+                    Some(Drive::Position(_)) => {
+                        // the drive's row is the joint's last
+                        let end: usize =
+                            sim.model.joints[..=*j].iter().map(|j| j.row_count()).sum();
+                        sim.joint_impulses()
+                            .get(end.wrapping_sub(1))
+                            .map_or(0.0, |q| q / sim.h())
+                    }
+                    None => 0.0,
+                }
+            }
+            Measure::Eccentricity { joint, part } => {
+                let e = sim.model.clearance_joints[*joint].eccentricity(&sim.state.poses);
+                part.of(&e, &sim.state.poses)
             }
             Measure::Distance {
                 from,
@@ -97,6 +301,9 @@ pub enum Reduce {
     /// impulse in the step of a `from` event), so a window's mean does not jump by a step's
     /// share when one of its ends crosses a step boundary.
     Mean,
+    /// The sum over the window of a step's impulse: each step counts for the part of its
+    /// interval inside the window, the step of a `from` event for its whole impulse.
+    Sum,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -151,6 +358,7 @@ impl Progress {
     fn reduced(&self, reduce: Reduce) -> Option<f64> {
         match reduce {
             Reduce::Mean => (self.weight > 0.0).then(|| self.acc / self.weight),
+            Reduce::Sum => Some(self.acc),
             _ => (self.count > 0).then_some(self.acc),
         }
     }
@@ -304,7 +512,7 @@ impl<'a> ProbeRecorder<'a> {
                 self.progress[i].previous = Some((t, v));
                 continue;
             }
-            if *reduce == Reduce::Mean {
+            if matches!(reduce, Reduce::Mean | Reduce::Sum) {
                 // ∫ value dt over [from, to] / (to − from): the step just taken covers
                 // (last_t, t] (the initial state covers nothing) and counts for its overlap
                 // with the window, except that a contact force counts its whole impulse in
@@ -323,7 +531,7 @@ impl<'a> ProbeRecorder<'a> {
                 };
                 let g = &mut self.progress[i];
                 if t1.is_some_and(|t1| t_prev >= t1) {
-                    g.value = g.reduced(Reduce::Mean);
+                    g.value = g.reduced(*reduce);
                     continue;
                 }
                 let Some(t0) = t0 else {
@@ -332,13 +540,20 @@ impl<'a> ProbeRecorder<'a> {
                 let end = t.min(t1.unwrap_or(f64::INFINITY));
                 let w = end - t_prev.max(t0);
                 let opened_by_event = matches!(from, Some(TimeRef::Probe(_))) && t0 > t_prev;
-                let whole_impulse = opened_by_event && matches!(measure, Measure::ContactForce(_));
+                let whole_impulse = opened_by_event
+                    && matches!(measure, Measure::ContactForce(_) | Measure::Impulse(_));
                 // the event's impulse counts even when the event is timed at the step's very
                 // end (w = 0): a contact closing late in a step whose free-flight estimate
                 // overshoots it is timed there, and its impact would otherwise be dropped
                 if w > 0.0 || (whole_impulse && t0 <= end) {
                     let covered = if whole_impulse { end - t_prev } else { w };
-                    g.acc += covered * measure.value(sim);
+                    // a mean weighs each step's value by its time in the window; a sum of
+                    // impulses takes each step's by the share of the step in the window
+                    let weight = match reduce {
+                        Reduce::Sum => covered / (t - t_prev),
+                        _ => covered,
+                    };
+                    g.acc += weight * measure.value(sim);
                     g.weight += w.max(0.0);
                 }
                 continue;

@@ -92,6 +92,8 @@ pub struct ProbeValue {
 pub struct SimulateReport {
     pub scene: String,
     pub source: String,
+    /// How the written state was assembled.
+    pub assembly: crate::integrator::assembly::Assembly,
     pub scheme: Scheme,
     pub h: f64,
     pub settle_h: Option<f64>,
@@ -198,6 +200,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
     Ok(SimulateReport {
         scene: scene.name.clone(),
         source: source.to_string(),
+        assembly: scene.assembly.clone(),
         scheme: sim.params.scheme,
         h: sim.params.h,
         settle_h: sim
@@ -235,6 +238,7 @@ impl fmt::Display for SimulateReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let st = &self.stats;
         writeln!(f, "scene            {} ({})", self.scene, self.source)?;
+        write!(f, "{}", self.assembly)?;
         writeln!(
             f,
             "scheme           {} h = {:e} s{}, θ = {}",

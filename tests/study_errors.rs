@@ -60,14 +60,22 @@ fn unknown_parameter_path() {
         "unknown parameter path `contacts.floor.colour`",
     );
     // the nearest paths of a wrong component, and a path that stops at a vector
-    let e = error_of("axis", "path: bodies.ball.position.z", "path: bodies.ball.position.q");
+    let e = error_of(
+        "axis",
+        "path: bodies.ball.position.z",
+        "path: bodies.ball.position.q",
+    );
     assert_names(
         &e,
         "parameters[1].path",
         line_of("bodies.ball.position.z"),
         "`position` has the components x, y, z",
     );
-    let e = error_of("vector", "path: bodies.ball.position.z", "path: bodies.ball.position");
+    let e = error_of(
+        "vector",
+        "path: bodies.ball.position.z",
+        "path: bodies.ball.position",
+    );
     assert!(e.contains("name a component of `position`: x, y, z"), "{e}");
 }
 

@@ -2,6 +2,7 @@
 //! impact law), its parameters, and the time loop with per-step diagnostics.
 
 mod activation;
+pub mod assembly;
 mod impact;
 pub mod iteration_matrix;
 pub mod moreau_jean;

@@ -13,8 +13,8 @@ use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
-/// The joints' bilateral rows evaluated at given poses.
-pub type JointRowsAt<'a> = &'a dyn Fn(&[Pose]) -> Vec<BilateralRow>;
+/// The joints' bilateral rows evaluated at a time and poses.
+pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>;
 
 /// Result of the velocity step.
 #[derive(Clone, Debug)]
@@ -62,12 +62,20 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>
     out
 }
 
-/// The joints' equality rows H v = b eliminated from the step (Schur complement): the
-/// velocity v_free + Z Q with Z = W⁻¹Hᵀ and S = H Z. Z is nonzero only on the bodies
-/// W couples to jointed ones, so a contact away from the joints keeps its plain response.
+/// The joints' rows eliminated from the step (Schur complement). The impulses Q act along
+/// the rows at the step's midpoint, G = H(q_{k+½}), and the velocity meets the rows at its
+/// end, H = H(q_{k+1}): H v_{k+1} = b(t_{k+1}). So v = v_free + Z Q with Z = W⁻¹Gᵀ and
+/// S = H Z. The midpoint direction keeps the θ = 1/2 scheme second order on constrained
+/// motion (start-of-step rows, as in Siconos, are first order); the end-of-step condition
+/// leaves no free mode: imposing the midpoint rows on the mean velocity, G (v_k + v_{k+1})/2
+/// = b, leaves v_{k+1} = 2b − v_k free to alternate step after step, which any impact
+/// excites and nothing damps. Z is nonzero only on the bodies W couples to jointed ones, so
+/// a contact away from the joints keeps its plain response.
 struct Elimination {
+    /// G, the rows the impulses act along.
+    gmat: DMatrix<f64>,
+    /// H and b, the rows the end-of-step velocity meets.
     hmat: DMatrix<f64>,
-    /// The rows' right-hand side: 2b − H v_k for the midpoint rule.
     rates: DVector<f64>,
     z: DMatrix<f64>,
     schur: EqualitySolver,
@@ -77,8 +85,13 @@ struct Elimination {
 }
 
 impl Elimination {
-    fn new(w: &IterationMatrix, hmat: DMatrix<f64>, rates: DVector<f64>) -> Self {
-        let z = solve_columns(w, &hmat.transpose());
+    fn new(
+        w: &IterationMatrix,
+        gmat: DMatrix<f64>,
+        hmat: DMatrix<f64>,
+        rates: DVector<f64>,
+    ) -> Self {
+        let z = solve_columns(w, &gmat.transpose());
         let bodies = hmat.ncols() / 6;
         let h_bodies = (0..bodies)
             .filter(|&b| hmat.columns(6 * b, 6).iter().any(|&x| x != 0.0))
@@ -88,6 +101,7 @@ impl Elimination {
             .collect();
         Elimination {
             schur: EqualitySolver::new(&hmat * &z),
+            gmat,
             hmat,
             rates,
             z,
@@ -224,7 +238,7 @@ pub fn velocity_step(
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
             let mut reactions = resid.clone();
             if let Some(e) = &elimination {
-                reactions -= e.hmat.tr_mul(&q_joint);
+                reactions -= e.gmat.tr_mul(&q_joint);
             }
             let res = newton_residual(&reactions, &blocks, &r, mask);
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
@@ -239,13 +253,12 @@ pub fn velocity_step(
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta, alpha);
         let v_free = &v - w.solve(&resid);
-        // eliminate the equality rows: v = v_free + W⁻¹Hᵀ Q with
-        // H(q_{k+½}) v_{k+1} = 2b − H(q_{k+½}) v_k
+        // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         elimination = joints.map(|rows_at| {
             let mid = advance_poses(poses, v0, &v, 0.5 * h, 0.5);
-            let (hmat, b) = bilateral_matrix(&rows_at(&mid), mask, ndof);
-            let rates = &b * 2.0 - &hmat * v0;
-            Elimination::new(&w, hmat, rates)
+            let (gmat, _) = bilateral_matrix(&rows_at(t + 0.5 * h, &mid), mask, ndof);
+            let (hmat, rates) = bilateral_matrix(&rows_at(t + h, &poses1), mask, ndof);
+            Elimination::new(&w, gmat, hmat, rates)
         });
         let (v_free_c, q_free) = match &elimination {
             Some(e) => {

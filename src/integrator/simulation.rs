@@ -289,12 +289,11 @@ impl Simulation {
     }
 
     pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
-        let t_mid = self.state.t + 0.5 * self.h;
         let joints = &self.model.joints;
-        let rows_at = |poses: &[Pose]| {
+        let rows_at = |t: f64, poses: &[Pose]| {
             let mut rows = Vec::new();
             for j in joints {
-                j.rows(t_mid, poses, &mut rows);
+                j.rows(t, poses, &mut rows);
             }
             rows
         };
@@ -341,7 +340,7 @@ impl Simulation {
             &start,
             &refs,
             &warm,
-            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(&[Pose]) -> Vec<BilateralRow>),
+            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>),
         )
     }
 

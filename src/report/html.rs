@@ -43,7 +43,8 @@ pre{background:#f6f6f6;padding:0.6em;overflow-x:auto;font-size:0.85em}
 .figs{display:flex;flex-wrap:wrap;gap:12px}.figs figure{margin:0;width:580px}
 .figs svg{width:100%;height:auto;border:1px solid #ddd}
 figcaption{font-size:0.8em;color:#444}
-.meta td{text-align:left}";
+.meta td{text-align:left}
+.caution{border-left:4px solid #c60;padding:0.3em 0.8em;background:#fff6ec}";
 
 pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     let t = &data.table;
@@ -152,6 +153,16 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         );
     }
     let _ = writeln!(s, "</table>");
+    for o in data.summary.outputs.iter() {
+        if let Some(c) = &o.caution {
+            let _ = writeln!(
+                s,
+                "<p class=\"caution\"><b>{}</b> depends on the step size: {}</p>",
+                esc(&o.name),
+                esc(c)
+            );
+        }
+    }
 
     // sensitivity tables
     let inputs: Vec<&str> = t.columns.inputs.iter().map(|(n, _)| n.as_str()).collect();

@@ -10,6 +10,7 @@ use super::joints::{joint, BuiltJoint};
 use super::schema::SceneSpec;
 use super::units::Dim;
 use super::{Scene, Tuning};
+use crate::integrator::assembly::{assemble, AssemblyError, Targets};
 use crate::integrator::IntegrationParameters;
 use crate::mechanics::Model;
 use nalgebra::Vector3;
@@ -60,6 +61,7 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         let f = super::forces::force(&model, fs, i)?;
         model.forces.push(f);
     }
+    let mut targets = Targets::default();
     for (i, j) in spec.joints.iter().enumerate() {
         if model.joints.iter().any(|k| k.name == j.name.value)
             || model
@@ -74,8 +76,14 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
             ));
         }
         match joint(&model, j, i)? {
-            BuiltJoint::Ideal(joint) => model.joints.push(joint),
-            BuiltJoint::Clearance(joint) => model.clearance_joints.push(joint),
+            BuiltJoint::Ideal(joint, start) => {
+                model.joints.push(joint);
+                targets.joints.push(start);
+            }
+            BuiltJoint::Clearance(joint, offset) => {
+                model.clearance_joints.push(joint);
+                targets.eccentricities.push(offset);
+            }
         }
     }
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
@@ -83,6 +91,21 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
     apply_integrator(&spec.integrator, &mut params, "integrator")?;
     // the phases' steps and tolerances are ratios of the document's own
     let schedule = super::phases::schedule(spec, &model, &params)?;
+    // probes measure from the written configuration, so they are built before assembly
+    let probes = super::probes::probes(&model, &spec.probes)?;
+    let assembly = assemble(&mut model, &targets, params.projection_tolerance).map_err(|e| {
+        let joint = match &e {
+            AssemblyError::Positions { joint, .. } | AssemblyError::Velocities { joint, .. } => {
+                joint
+            }
+        };
+        let i = spec.joints.iter().position(|j| j.name.value == *joint);
+        SceneError::at(
+            i.and_then(|i| line(&spec.joints[i].name)),
+            i.map_or("joints".into(), |i| format!("joints[{i}]")),
+            e.to_string(),
+        )
+    })?;
     for t in &tuning {
         apply_integrator(&t.block, &mut params, &t.origin)?;
     }
@@ -91,13 +114,13 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         .every
         .as_ref()
         .map_or(Ok(1), |q| count(q, "record.every"))?;
-    let probes = super::probes::probes(&model, &spec.probes)?;
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
         spec: document,
         file: file.to_string(),
         tuning,
         probes,
+        assembly,
         params,
         schedule,
         model,

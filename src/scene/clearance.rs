@@ -2,14 +2,16 @@
 //! placed from a world anchor and axis or from body-frame ones.
 
 use super::error::{line, SceneError};
-use super::fields::{count, non_negative, positive, restitution, unit_vec3, vec3, R};
-use super::joints::joint_bodies;
+use super::fields::{count, non_negative, opt_vec3, positive, restitution, unit_vec3, vec3, R};
+use super::joints::{joint_bodies, BuiltJoint};
 use super::schema::{JointSpec, Vector, Q};
 use super::units::Dim;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::{BodyRef, Model};
+use nalgebra::Vector3;
 
-pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<ClearanceJoint> {
+/// Joint `i`, a revolute joint with clearance, with the journal's initial eccentricity.
+pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
     let f = |s: &str| format!("joints[{i}].{s}");
     let required = |q: &Option<Q>, name: &str, dim: Dim| -> R<f64> {
         let q = q.as_ref().ok_or_else(|| {
@@ -90,7 +92,52 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Cl
                 unit_vec3(need(&spec.axis_b, f("axis_b"), l)?, &f("axis_b"))?,
             )
         };
-    Ok(ClearanceJoint {
+    let clearance = required(&spec.clearance, "clearance", Dim::LENGTH)?;
+    // the flange bears on the bore's end face at any eccentricity only beyond the bore
+    // radius plus the clearance
+    let least = journal_radius + 2.0 * clearance;
+    let flange_radius = match &spec.flange_radius {
+        None => (1.5 * journal_radius).max(journal_radius + 3.0 * clearance),
+        Some(q) => {
+            let r = positive(q, Dim::LENGTH, &f("flange_radius"))?;
+            if r <= least {
+                return Err(SceneError::at(
+                    line(q),
+                    f("flange_radius"),
+                    format!("must exceed the journal radius plus twice the clearance ({least} m), so that the flange bears on the bore's face wherever the journal lies in its bore; got {r}"),
+                ));
+            }
+            r
+        }
+    };
+    let eccentricity = match spec.initial.as_ref() {
+        None => Vector3::zeros(),
+        Some(init) => {
+            let s = &init.value;
+            if [&s.angle, &s.rate, &s.position, &s.speed]
+                .iter()
+                .any(|q| q.is_some())
+            {
+                return Err(SceneError::at(
+                    line(init),
+                    f("initial"),
+                    "a revolute-clearance joint starts with its journal at an `eccentricity` (default: centred); its bodies' velocities give its rate",
+                ));
+            }
+            let ecc = opt_vec3(&s.eccentricity, Dim::LENGTH, &f("initial.eccentricity"))?;
+            let axial = ecc.dot(&bore_axis);
+            let radial = (ecc - bore_axis * axial).norm();
+            if axial.abs() > 1e-12 * (1.0 + radial) || radial >= clearance {
+                return Err(SceneError::at(
+                    s.eccentricity.as_ref().and_then(line),
+                    f("initial.eccentricity"),
+                    format!("must be perpendicular to the bore axis and shorter than the clearance ({clearance} m), got {radial} m radial, {axial} m axial"),
+                ));
+            }
+            ecc
+        }
+    };
+    let joint = ClearanceJoint {
         name: spec.name.value.clone(),
         bore_body: a,
         journal_body: b,
@@ -100,22 +147,18 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Cl
         journal_point,
         journal_axis,
         journal_radius,
-        clearance: required(&spec.clearance, "clearance", Dim::LENGTH)?,
+        clearance,
         axial_play: spec
             .axial_play
             .as_ref()
             .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
-        flange_radius: spec
-            .flange_radius
-            .as_ref()
-            .map_or(Ok(1.5 * journal_radius), |q| {
-                positive(q, Dim::LENGTH, &f("flange_radius"))
-            })?,
+        flange_radius,
         rim_points: rim,
         mu: spec
             .mu
             .as_ref()
             .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
         e,
-    })
+    };
+    Ok(BuiltJoint::Clearance(joint, eccentricity))
 }

@@ -6,6 +6,7 @@ use super::error::{line, SceneError};
 use super::fields::{body_ref, opt_vec3, restitution, scalar, unit_vec3, vec3, R};
 use super::schema::{JointSpec, Vector};
 use super::units::{Dim, Quantity};
+use crate::integrator::assembly::JointStart;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{BodyRef, Model, Motion};
@@ -48,16 +49,89 @@ pub(super) fn joint_bodies(model: &Model, spec: &JointSpec, i: usize) -> R<(Body
     Ok((a, b))
 }
 
-/// A joint of the scene: ideal (bilateral rows) or with clearance (contacts).
+/// A joint of the scene: ideal (bilateral rows) or with clearance (contacts), with the
+/// initial condition the assembly gives it.
 pub(super) enum BuiltJoint {
-    Ideal(Joint),
-    Clearance(ClearanceJoint),
+    Ideal(Joint, JointStart),
+    /// The journal's initial offset from the bore axis (bore body frame).
+    Clearance(ClearanceJoint, Vector3<f64>),
+}
+
+/// The `initial` block of an ideal joint (revolute: angle and rate; prismatic: position
+/// and speed); spherical and fixed joints take none.
+fn initial(spec: &JointSpec, kind: JointKind, i: usize) -> R<JointStart> {
+    let f = |s: &str| format!("joints[{i}].initial.{s}");
+    let Some(init) = &spec.initial else {
+        return Ok(JointStart::default());
+    };
+    let s = &init.value;
+    if s.eccentricity.is_some() {
+        return Err(SceneError::at(
+            line(init),
+            f("eccentricity"),
+            "only a revolute-clearance joint has an eccentricity",
+        ));
+    }
+    let (coordinate, rate) = match kind {
+        JointKind::Revolute => {
+            if s.position.is_some() || s.speed.is_some() {
+                return Err(SceneError::at(
+                    line(init),
+                    f("position"),
+                    "a revolute joint starts at an `angle` with a `rate`",
+                ));
+            }
+            (
+                s.angle
+                    .as_ref()
+                    .map(|q| scalar(q, Dim::NONE, &f("angle")))
+                    .transpose()?,
+                s.rate
+                    .as_ref()
+                    .map(|q| scalar(q, Dim::ANGULAR_VELOCITY, &f("rate")))
+                    .transpose()?,
+            )
+        }
+        JointKind::Prismatic => {
+            if s.angle.is_some() || s.rate.is_some() {
+                return Err(SceneError::at(
+                    line(init),
+                    f("angle"),
+                    "a prismatic joint starts at a `position` with a `speed`",
+                ));
+            }
+            (
+                s.position
+                    .as_ref()
+                    .map(|q| scalar(q, Dim::LENGTH, &f("position")))
+                    .transpose()?,
+                s.speed
+                    .as_ref()
+                    .map(|q| scalar(q, Dim::VELOCITY, &f("speed")))
+                    .transpose()?,
+            )
+        }
+        _ => {
+            if [&s.angle, &s.rate, &s.position, &s.speed]
+                .iter()
+                .any(|q| q.is_some())
+            {
+                return Err(SceneError::at(
+                    line(init),
+                    format!("joints[{i}].initial"),
+                    format!("a {} joint has no coordinate to start from", kind.name()),
+                ));
+            }
+            (None, None)
+        }
+    };
+    Ok(JointStart { coordinate, rate })
 }
 
 pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
     let f = |s: &str| format!("joints[{i}].{s}");
     if spec.kind.value == "revolute-clearance" {
-        return clearance_joint(model, spec, i).map(BuiltJoint::Clearance);
+        return clearance_joint(model, spec, i);
     }
     let kind = match spec.kind.value.as_str() {
         "revolute" => JointKind::Revolute,
@@ -73,6 +147,7 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
         }
     };
     let (a, b) = joint_bodies(model, spec, i)?;
+    let initial = initial(spec, kind, i)?;
     let drive = match &spec.drive {
         None => None,
         Some(d) => {
@@ -104,11 +179,26 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
                 ));
             }
             Some(if let Some(v) = &s.velocity {
+                let rate = scalar(v, vel_dim, &f("drive.velocity"))?;
+                if initial.rate.is_some_and(|r| r != rate) {
+                    return Err(SceneError::at(
+                        line(v),
+                        f("initial"),
+                        format!("the initial rate contradicts the drive's velocity {rate}: give one of them"),
+                    ));
+                }
                 Drive::Position(ScalarProfile::Rate {
-                    start: 0.0,
-                    rate: scalar(v, vel_dim, &f("drive.velocity"))?,
+                    start: initial.coordinate.unwrap_or(0.0),
+                    rate,
                 })
             } else if let Some(t) = &s.position_table {
+                if initial.coordinate.is_some() || initial.rate.is_some() {
+                    return Err(SceneError::at(
+                        line(t),
+                        f("initial"),
+                        "a joint driven by a position table starts where the table does: give no initial condition",
+                    ));
+                }
                 Drive::Position(scalar_table(t, pos_dim, &f("drive.position_table"))?)
             } else if let Some(e) = &s.effort {
                 Drive::Effort(ScalarProfile::Rate {
@@ -141,11 +231,12 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
             };
             let lower = scalar(&l.value.lower, dim, &f("limits.lower"))?;
             let upper = scalar(&l.value.upper, dim, &f("limits.upper"))?;
-            if lower > 0.0 || upper < 0.0 || lower >= upper {
+            let start = initial.coordinate.unwrap_or(0.0);
+            if lower > start || upper < start || lower >= upper {
                 return Err(SceneError::at(
                     line(l),
                     f("limits"),
-                    format!("need lower ≤ 0 ≤ upper and lower < upper (the assembled configuration is 0), got [{lower}, {upper}]"),
+                    format!("need lower ≤ {start} ≤ upper and lower < upper (the joint starts at {start}, measured from the written configuration), got [{lower}, {upper}]"),
                 ));
             }
             let e = restitution(&l.value.e, &f("limits.e"))?;
@@ -215,8 +306,9 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
             drive,
         )
     };
-    Ok(BuiltJoint::Ideal(match limits {
+    let joint = match limits {
         Some(l) => joint.with_limits(l),
         None => joint,
-    }))
+    };
+    Ok(BuiltJoint::Ideal(joint, initial))
 }

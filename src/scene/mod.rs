@@ -23,6 +23,7 @@ pub use function::FunctionScene;
 pub use integrator::apply_integrator;
 pub use schema::{IntegratorSpec, SceneSpec};
 
+use crate::integrator::assembly::Assembly;
 use crate::integrator::{IntegrationParameters, Schedule, SimError, Simulation};
 use crate::mechanics::Model;
 use std::path::Path;
@@ -58,6 +59,8 @@ pub struct Scene {
     pub record_every: usize,
     /// Named outputs of a run.
     pub probes: Vec<crate::probe::Probe>,
+    /// How the written poses and velocities were assembled into the initial state.
+    pub assembly: Assembly,
 }
 
 impl Scene {

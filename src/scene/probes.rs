@@ -5,9 +5,15 @@ use super::error::{line, SceneError};
 use super::fields::{body_ref, count, opt_vec3, scalar, unit_vec3};
 use super::schema::{EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
 use super::units::{Dim, DisplayUnit};
+use crate::mechanics::force::TorsionalSpring;
+use crate::mechanics::joint::{Drive, JointKind};
 use crate::mechanics::model::Candidate;
+use crate::mechanics::BodyRef;
 use crate::mechanics::Model;
-use crate::probe::{Direction, Event, Measure, Probe, ProbeKind, Reduce, TimeRef};
+use crate::probe::{
+    Direction, Event, Measure, Part, Probe, ProbeKind, Reduce, RelativeAngle, TimeRef, Transmission,
+};
+use nalgebra::Vector3;
 use serde_saphyr::Spanned;
 
 type R<T> = Result<T, SceneError>;
@@ -44,52 +50,385 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
     Ok(ids)
 }
 
+/// A joint of the scene by name: an ideal joint's index, or a clearance joint's.
+enum JointName {
+    Ideal(usize),
+    Clearance(usize),
+}
+
+fn joint(model: &Model, name: &Name, field: &str) -> R<JointName> {
+    if let Some(i) = model.joints.iter().position(|j| j.name == name.value) {
+        return Ok(JointName::Ideal(i));
+    }
+    if let Some(i) = model
+        .clearance_joints
+        .iter()
+        .position(|j| j.name == name.value)
+    {
+        return Ok(JointName::Clearance(i));
+    }
+    let known: Vec<&str> = model
+        .joints
+        .iter()
+        .map(|j| j.name.as_str())
+        .chain(model.clearance_joints.iter().map(|j| j.name.as_str()))
+        .collect();
+    Err(SceneError::at(
+        line(name),
+        field,
+        format!(
+            "unknown joint `{}` (joints: {})",
+            name.value,
+            if known.is_empty() {
+                "none".into()
+            } else {
+                known.join(", ")
+            }
+        ),
+    ))
+}
+
+/// A moving body by name (the ground has no velocity to measure).
+fn body(model: &Model, name: &Name, field: &str) -> R<usize> {
+    body_ref(model, name, field)?
+        .ok_or_else(|| SceneError::at(line(name), field, "the ground does not move: name a body"))
+}
+
+/// A frame by name: `world` (`None`) or a body's.
+fn frame(model: &Model, name: &Option<Name>, field: &str) -> R<BodyRef> {
+    match name {
+        None => Ok(None),
+        Some(n) if n.value == "world" => Ok(None),
+        Some(n) => body_ref(model, n, field),
+    }
+}
+
+/// Which number of a vector measure the spec asks for: `axis` (with `frame`), or
+/// `angle_from` about the joint axis `about` (when the measure has one), or the magnitude.
+fn part(
+    model: &Model,
+    s: &MeasureSpec,
+    about: Option<(BodyRef, Vector3<f64>)>,
+    field: &str,
+) -> R<(Part, bool)> {
+    let f = |x: &str| format!("{field}.{x}");
+    let frame = frame(model, &s.frame, &f("frame"))?;
+    match (&s.axis, &s.angle_from) {
+        (Some(a), None) => Ok((
+            Part::Along {
+                axis: unit_vec3(a, &f("axis"))?,
+                frame,
+            },
+            false,
+        )),
+        (None, Some(r)) => {
+            let Some(about) = about else {
+                return Err(SceneError::at(
+                    line(r),
+                    f("angle_from"),
+                    "an angle needs a joint axis to turn about: only reactions and eccentricities of revolute joints take `angle_from`",
+                ));
+            };
+            Ok((
+                Part::Angle {
+                    reference: unit_vec3(r, &f("angle_from"))?,
+                    frame,
+                    about,
+                },
+                true,
+            ))
+        }
+        (None, None) => {
+            if let Some(n) = &s.frame {
+                return Err(SceneError::at(
+                    line(n),
+                    f("frame"),
+                    "`frame` goes with `axis` or `angle_from`",
+                ));
+            }
+            Ok((Part::Magnitude, false))
+        }
+        (Some(a), Some(_)) => Err(SceneError::at(
+            line(a),
+            f("axis"),
+            "give `axis` (a component) or `angle_from` (a direction), not both",
+        )),
+    }
+}
+
+/// The quantities a measure can be, by their key.
+const MEASURES: &str = "gap, contact_force, impulse, distance, angle, displacement, velocity, angular_velocity, reaction, reaction_torque, drive_effort, eccentricity";
+
 fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, Dim)> {
     let s = &m.value;
+    let f = |x: &str| format!("{field}.{x}");
     let given = [
         s.gap.is_some(),
         s.contact_force.is_some(),
+        s.impulse.is_some(),
         s.distance.is_some(),
+        s.angle.is_some(),
+        s.displacement.is_some(),
+        s.velocity.is_some(),
+        s.angular_velocity.is_some(),
+        s.reaction.is_some(),
+        s.reaction_torque.is_some(),
+        s.drive_effort.is_some(),
+        s.eccentricity.is_some(),
     ];
     if given.iter().filter(|&&g| g).count() != 1 {
         return Err(SceneError::at(
             line(m),
             field,
-            "needs exactly one of `gap`, `contact_force`, `distance`",
+            format!("needs exactly one of {MEASURES}"),
         ));
     }
+    let vector = s.velocity.is_some()
+        || s.angular_velocity.is_some()
+        || s.reaction.is_some()
+        || s.reaction_torque.is_some()
+        || s.eccentricity.is_some();
+    if !vector {
+        if let Some(x) = [&s.axis, &s.angle_from].into_iter().flatten().next() {
+            return Err(SceneError::at(
+                line(x),
+                field,
+                "`axis` and `angle_from` belong to vector quantities (velocity, angular_velocity, reaction, reaction_torque, eccentricity)",
+            ));
+        }
+        if let Some(n) = &s.frame {
+            return Err(SceneError::at(
+                line(n),
+                f("frame"),
+                "`frame` belongs to vector quantities",
+            ));
+        }
+    }
     if let Some(n) = &s.gap {
+        return Ok((Measure::Gap(contact(model, n, &f("gap"))?), Dim::LENGTH));
+    }
+    if let Some(n) = &s.contact_force {
+        let ids = contact(model, n, &f("contact_force"))?;
+        return Ok((Measure::ContactForce(ids), Dim::FORCE));
+    }
+    if let Some(n) = &s.impulse {
+        let ids = contact(model, n, &f("impulse"))?;
+        return Ok((Measure::Impulse(ids), Dim::IMPULSE));
+    }
+    if let Some(d) = &s.distance {
+        let d = &d.value;
+        let g = |x: &str| format!("{field}.distance.{x}");
         return Ok((
-            Measure::Gap(contact(model, n, &format!("{field}.gap"))?),
+            Measure::Distance {
+                from: (
+                    body_ref(model, &d.from.body, &g("from.body"))?,
+                    opt_vec3(&d.from.point, Dim::LENGTH, &g("from.point"))?,
+                ),
+                to: (
+                    body_ref(model, &d.to.body, &g("to.body"))?,
+                    opt_vec3(&d.to.point, Dim::LENGTH, &g("to.point"))?,
+                ),
+                axis: unit_vec3(&d.axis, &g("axis"))?,
+                frame: frame(model, &d.frame, &g("frame"))?,
+            },
             Dim::LENGTH,
         ));
     }
-    if let Some(n) = &s.contact_force {
-        let ids = contact(model, n, &format!("{field}.contact_force"))?;
-        return Ok((Measure::ContactForce(ids), Dim::FORCE));
+    if let Some(n) = s.angle.as_ref().or(s.displacement.as_ref()) {
+        let (key, prismatic_wanted) = if s.angle.is_some() {
+            ("angle", false)
+        } else {
+            ("displacement", true)
+        };
+        return match joint(model, n, &f(key))? {
+            JointName::Ideal(j) => {
+                let kind = model.joints[j].kind;
+                let prismatic = kind == JointKind::Prismatic;
+                let has = matches!(kind, JointKind::Revolute | JointKind::Prismatic);
+                if !has || prismatic != prismatic_wanted {
+                    return Err(SceneError::at(
+                        line(n),
+                        f(key),
+                        format!(
+                            "joint `{}` is {} joint: {}",
+                            n.value,
+                            kind.name(),
+                            match kind {
+                                JointKind::Revolute => "measure its `angle`",
+                                JointKind::Prismatic => "measure its `displacement`",
+                                _ => "it has no coordinate",
+                            }
+                        ),
+                    ));
+                }
+                let dim = if prismatic { Dim::LENGTH } else { Dim::NONE };
+                Ok((Measure::Coordinate(j), dim))
+            }
+            JointName::Clearance(j) if !prismatic_wanted => {
+                let c = &model.clearance_joints[j];
+                let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
+                let gauge = TorsionalSpring::new(
+                    c.bore_body,
+                    c.journal_body,
+                    c.bore_axis,
+                    &poses,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                );
+                Ok((Measure::RelativeAngle(RelativeAngle(gauge)), Dim::NONE))
+            }
+            JointName::Clearance(_) => Err(SceneError::at(
+                line(n),
+                f(key),
+                format!(
+                    "joint `{}` is a revolute-clearance joint: measure its `angle`",
+                    n.value
+                ),
+            )),
+        };
     }
-    let d = &s.distance.as_ref().expect("checked above").value;
-    let f = |s: &str| format!("{field}.distance.{s}");
-    let frame = match &d.frame {
-        Some(n) if n.value == "world" => None,
-        Some(n) => body_ref(model, n, &f("frame"))?,
-        None => None,
+    if let Some(p) = &s.velocity {
+        let b = body(model, &p.value.body, &f("velocity.body"))?;
+        let point = opt_vec3(&p.value.point, Dim::LENGTH, &f("velocity.point"))?;
+        let (part, angle) = part(model, s, None, field)?;
+        debug_assert!(!angle);
+        return Ok((
+            Measure::PointVelocity {
+                body: b,
+                point,
+                part,
+            },
+            Dim::VELOCITY,
+        ));
+    }
+    if let Some(n) = &s.angular_velocity {
+        let b = body(model, n, &f("angular_velocity"))?;
+        let (part, _) = part(model, s, None, field)?;
+        return Ok((
+            Measure::AngularVelocity { body: b, part },
+            Dim::ANGULAR_VELOCITY,
+        ));
+    }
+    if let Some(n) = s.reaction.as_ref().or(s.reaction_torque.as_ref()) {
+        let torque = s.reaction_torque.is_some();
+        let key = if torque {
+            "reaction_torque"
+        } else {
+            "reaction"
+        };
+        let (through, about) = match joint(model, n, &f(key))? {
+            JointName::Ideal(j) => {
+                let joint = &model.joints[j];
+                let start: usize = model.joints[..j].iter().map(|j| j.row_count()).sum();
+                let structural = joint.row_count()
+                    - usize::from(matches!(joint.drive, Some(Drive::Position(_))));
+                let stops = model
+                    .contact_candidates()
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, c)| matches!(c, Candidate::Limit { joint, .. } if *joint == j))
+                    .map(|(i, _)| i)
+                    .collect();
+                let about =
+                    matches!(joint.kind, JointKind::Revolute).then_some((joint.a, joint.axis_a));
+                (
+                    Transmission::Joint {
+                        joint: j,
+                        rows: start..start + structural,
+                        stops,
+                    },
+                    about,
+                )
+            }
+            JointName::Clearance(j) => {
+                let c = &model.clearance_joints[j];
+                let candidates = contact(model, n, &f(key))?;
+                (
+                    Transmission::Clearance {
+                        joint: j,
+                        candidates,
+                    },
+                    Some((c.bore_body, c.bore_axis)),
+                )
+            }
+        };
+        let (part, angle) = part(model, s, about, field)?;
+        let dim = match (angle, torque) {
+            (true, _) => Dim::NONE,
+            (false, true) => Dim::TORQUE,
+            (false, false) => Dim::FORCE,
+        };
+        return Ok((
+            Measure::Reaction {
+                through,
+                torque,
+                part,
+            },
+            dim,
+        ));
+    }
+    if let Some(n) = &s.drive_effort {
+        let JointName::Ideal(j) = joint(model, n, &f("drive_effort"))? else {
+            return Err(SceneError::at(
+                line(n),
+                f("drive_effort"),
+                format!(
+                    "joint `{}` is a revolute-clearance joint, which has no drive",
+                    n.value
+                ),
+            ));
+        };
+        let joint = &model.joints[j];
+        if joint.drive.is_none() {
+            return Err(SceneError::at(
+                line(n),
+                f("drive_effort"),
+                format!("joint `{}` has no drive", n.value),
+            ));
+        }
+        let dim = if joint.kind == JointKind::Prismatic {
+            Dim::FORCE
+        } else {
+            Dim::TORQUE
+        };
+        return Ok((Measure::DriveEffort(j), dim));
+    }
+    let n = s.eccentricity.as_ref().expect("one measure given");
+    let JointName::Clearance(j) = joint(model, n, &f("eccentricity"))? else {
+        return Err(SceneError::at(
+            line(n),
+            f("eccentricity"),
+            format!(
+                "joint `{}` is ideal: only a revolute-clearance joint has an eccentricity",
+                n.value
+            ),
+        ));
     };
-    Ok((
-        Measure::Distance {
-            from: (
-                body_ref(model, &d.from.body, &f("from.body"))?,
-                opt_vec3(&d.from.point, Dim::LENGTH, &f("from.point"))?,
-            ),
-            to: (
-                body_ref(model, &d.to.body, &f("to.body"))?,
-                opt_vec3(&d.to.point, Dim::LENGTH, &f("to.point"))?,
-            ),
-            axis: unit_vec3(&d.axis, &f("axis"))?,
-            frame,
-        },
-        Dim::LENGTH,
-    ))
+    let c = &model.clearance_joints[j];
+    let (part, angle) = part(model, s, Some((c.bore_body, c.bore_axis)), field)?;
+    let dim = if angle { Dim::NONE } else { Dim::LENGTH };
+    Ok((Measure::Eccentricity { joint: j, part }, dim))
+}
+
+/// Why a reduction of a measure depends on the step size, if it does: in a rigid model an
+/// impact is an impulse, so the peak of a force over steps that contain impacts grows as
+/// 1/h. Forces are impulsive wherever the scene has unilateral contacts.
+fn caution(model: &Model, measure: &Measure, reduce: Reduce, field: &str) -> Option<String> {
+    let unilateral = !model.contacts.is_empty()
+        || !model.clearance_joints.is_empty()
+        || model.joints.iter().any(|j| j.limits.is_some());
+    let force = matches!(
+        measure,
+        Measure::ContactForce(_) | Measure::Reaction { .. } | Measure::DriveEffort(_)
+    );
+    (unilateral && force && matches!(reduce, Reduce::Max | Reduce::Min)).then(|| {
+        format!(
+            "`{field}` takes the {} of a force in a mechanism with impacts: a rigid impact is an impulse, so the peak force grows as 1/h and this value depends on the step size. Converged alternatives: the largest impact impulse (`impulse:` with `reduce: max`) or the force's mean over a window (`reduce: mean`)",
+            if reduce == Reduce::Max { "maximum" } else { "minimum" }
+        )
+    })
 }
 
 fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)> {
@@ -197,6 +536,7 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
                 format!("duplicate probe name `{}`", p.name.value),
             ));
         }
+        let mut caution = None;
         let (kind, dim) = match (&p.event, &p.measure) {
             (Some(e), None) => {
                 if let Some(extra) = [&p.at, &p.from, &p.to].into_iter().flatten().next() {
@@ -216,14 +556,34 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
                     Some(("max", _)) => Reduce::Max,
                     Some(("min", _)) => Reduce::Min,
                     Some(("mean", _)) => Reduce::Mean,
+                    Some(("sum", _)) => Reduce::Sum,
                     Some((other, r)) => {
                         return Err(SceneError::at(
                             line(r),
                             f("reduce"),
-                            format!("unknown reduction `{other}` (at, max, min, mean)"),
+                            format!("unknown reduction `{other}` (at, max, min, mean, sum)"),
                         ))
                     }
                 };
+                // an impulse is a step's: summed over a window it is the momentum exchanged;
+                // its mean over the steps would shrink with h
+                let impulse = matches!(measure, Measure::Impulse(_));
+                if let Some(r) = &p.reduce {
+                    if reduce == Reduce::Sum && !impulse {
+                        return Err(SceneError::at(
+                            line(r),
+                            f("reduce"),
+                            "`sum` adds up impulses: it goes with `impulse`",
+                        ));
+                    }
+                    if reduce == Reduce::Mean && impulse {
+                        return Err(SceneError::at(
+                            line(r),
+                            f("reduce"),
+                            "the mean of a step's impulse shrinks with the step: use `sum` (the impulse over the window) or the window mean of `contact_force`",
+                        ));
+                    }
+                }
                 let opt = |t: &Option<Spanned<TimeSpec>>, name: &str| {
                     t.as_ref().map(|t| time_ref(specs, t, &f(name))).transpose()
                 };
@@ -232,9 +592,10 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
                     return Err(SceneError::at(
                         line(&p.name),
                         f("reduce"),
-                        "`from`/`to` need a reduction over the window (max, min, mean)",
+                        "`from`/`to` need a reduction over the window (max, min, mean, sum)",
                     ));
                 }
+                caution = self::caution(model, &measure, reduce, &p.name.value);
                 if reduce != Reduce::At && at.is_some() {
                     return Err(SceneError::at(
                         line(&p.name),
@@ -272,7 +633,7 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
             name: p.name.value.clone(),
             unit: dim.si_unit(),
             display,
-            caution: None,
+            caution,
             kind,
         });
     }

@@ -24,6 +24,7 @@ impl Dim {
     pub const DAMPING: Dim = Dim(0, 1, -1);
     pub const ROTATIONAL_DAMPING: Dim = Dim(2, 1, -1);
     pub const INERTIA: Dim = Dim(2, 1, 0);
+    pub const IMPULSE: Dim = Dim(1, 1, -1);
 
     fn mul(self, o: Dim, exp: i8) -> Dim {
         Dim(self.0 + o.0 * exp, self.1 + o.1 * exp, self.2 + o.2 * exp)
@@ -53,6 +54,7 @@ impl Dim {
             (Dim::TORQUE, "N*m"),
             (Dim::STIFFNESS, "N/m"),
             (Dim::INERTIA, "kg*m^2"),
+            (Dim::IMPULSE, "N*s"),
         ];
         named
             .iter()
@@ -77,6 +79,7 @@ impl Dim {
             (Dim::DAMPING, "a damping (e.g. N*s/m)"),
             (Dim::ROTATIONAL_DAMPING, "a rotational damping (e.g. N*m*s)"),
             (Dim::INERTIA, "an inertia (e.g. kg*m^2)"),
+            (Dim::IMPULSE, "an impulse (e.g. N*s)"),
         ];
         named
             .iter()

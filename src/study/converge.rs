@@ -234,6 +234,17 @@ pub fn sigma_of(summary: &Summary, outputs: &[String]) -> Option<Vec<f64>> {
         .collect()
 }
 
+/// An output whose values drift apart as h falls: its change between the two coarsest steps
+/// and between the two finest, and those steps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Drift {
+    pub output: usize,
+    pub coarse: f64,
+    pub fine: f64,
+    pub from: (f64, f64),
+    pub to: (f64, f64),
+}
+
 /// One run: outputs (NaN where failed), wall time and the failure, if any.
 #[derive(Clone, Debug)]
 pub struct Run {
@@ -360,11 +371,82 @@ impl Convergence {
         w[w.len() / 2]
     }
 
-    /// The cheapest fidelity (not the reference) whose every error is below `target`.
+    /// The cheapest fidelity (not the reference) whose error on every output that
+    /// converges (not [`Convergence::step_dependent`]) is below `target`.
     pub fn recommend(&self, target: f64) -> Option<usize> {
+        let drifting: Vec<usize> = self.step_dependent().iter().map(|d| d.output).collect();
         (0..self.fidelities.len() - 1)
-            .filter(|&f| (0..self.outputs.len()).all(|k| self.error(f, k) < target))
+            .filter(|&f| {
+                (0..self.outputs.len())
+                    .filter(|k| !drifting.contains(k))
+                    .all(|k| self.error(f, k) < target)
+            })
             .min_by(|&a, &b| self.cost(a).total_cmp(&self.cost(b)))
+    }
+
+    /// The rungs that differ from each other in h only, and the reference, coarse to fine:
+    /// the step ladder along which an output should settle.
+    fn step_ladder(&self) -> Vec<usize> {
+        let same_but_h = |a: &Fidelity, b: &Fidelity| {
+            a.scheme == b.scheme
+                && a.theta == b.theta
+                && a.solver_tolerance == b.solver_tolerance
+                && a.projection_tolerance == b.projection_tolerance
+                && a.locate_impacts == b.locate_impacts
+                && a.extrapolate.is_none()
+                && a.preset.is_none()
+        };
+        let n = self.fidelities.len() - 1;
+        let mut ladder: Vec<usize> = (0..n)
+            .filter(|&f| same_but_h(&self.fidelities[f], &self.fidelities[0]))
+            .collect();
+        ladder.sort_by(|&a, &b| self.fidelities[b].h.total_cmp(&self.fidelities[a].h));
+        ladder.push(n);
+        ladder
+    }
+
+    /// The outputs whose values move further apart as h falls: along the step ladder, the
+    /// change between the two finest steps exceeds the change between the two coarsest
+    /// (largest over the samples, and beyond round-off). Such an output depends on the step
+    /// size itself: the peak of an impulsive force (∝ 1/h in a rigid model) or a chaotic
+    /// quantity. Refining h does not converge it.
+    pub fn step_dependent(&self) -> Vec<Drift> {
+        let ladder = self.step_ladder();
+        if ladder.len() < 3 {
+            return Vec::new();
+        }
+        let change = |f: usize, g: usize, k: usize| {
+            self.runs[f]
+                .iter()
+                .zip(&self.runs[g])
+                .map(|(a, b)| (a.outputs[k] - b.outputs[k]).abs())
+                .fold(0.0f64, |m, d| if d.is_finite() { m.max(d) } else { m })
+        };
+        let last = ladder.len() - 1;
+        (0..self.outputs.len())
+            .filter_map(|k| {
+                let coarse = change(ladder[0], ladder[1], k);
+                let fine = change(ladder[last - 1], ladder[last], k);
+                let scale = match &self.sigma {
+                    Some(s) => s[k],
+                    None => self
+                        .reference()
+                        .iter()
+                        .map(|r| r.outputs[k].abs())
+                        .fold(0.0, f64::max),
+                };
+                (fine > coarse && fine > 1e-6 * scale).then_some(Drift {
+                    output: k,
+                    coarse,
+                    fine,
+                    from: (self.fidelities[ladder[0]].h, self.fidelities[ladder[1]].h),
+                    to: (
+                        self.fidelities[ladder[last - 1]].h,
+                        self.fidelities[ladder[last]].h,
+                    ),
+                })
+            })
+            .collect()
     }
 
     /// The printed table: one row per fidelity, its cost and each output's error.
@@ -446,8 +528,18 @@ fn short(name: &str) -> String {
     name.chars().take(12).collect()
 }
 
+/// The table, then a verdict for each output that depends on the step size.
 impl fmt::Display for Convergence {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.table())
+        f.write_str(&self.table())?;
+        for d in self.step_dependent() {
+            let (name, unit) = &self.outputs[d.output];
+            writeln!(
+                f,
+                "(!) {name}: does not converge with h: it changes by {:.3e} {unit} from h = {:e} to {:e} s, and by {:.3e} {unit} from h = {:e} to {:e} s. It depends on the step size itself (the peak of an impulsive force grows as 1/h in a rigid model; a chaotic quantity changes at random): refining h makes it no better. Measure a converged quantity instead (an impact impulse, a window mean), or report its statistics over a study. It is left out of the recommendation.",
+                d.coarse, d.from.0, d.from.1, d.fine, d.to.0, d.to.1
+            )?;
+        }
+        Ok(())
     }
 }

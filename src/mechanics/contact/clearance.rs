@@ -229,6 +229,28 @@ impl ClearanceJoint {
         }
     }
 
+    /// The bore's centre (mid-length, on its axis) in the world at `poses`.
+    pub fn centre(&self, poses: &[Pose]) -> Vector3<f64> {
+        self.frames(poses).c_b
+    }
+
+    /// The journal's offset from the bore axis at the bore's mid-plane (world): where the
+    /// journal axis crosses the plane through the bore centre normal to the bore axis,
+    /// less the centre. Its length is the eccentricity that the clearance bounds.
+    pub fn eccentricity(&self, poses: &[Pose]) -> Vector3<f64> {
+        let Frames {
+            a_b, a_j, c_b, p_j, ..
+        } = self.frames(poses);
+        let along = a_b.dot(&a_j);
+        let crossing = if along.abs() > 1e-12 {
+            p_j + a_j * (a_b.dot(&(c_b - p_j)) / along)
+        } else {
+            p_j
+        };
+        let e = crossing - c_b;
+        e - a_b * a_b.dot(&e)
+    }
+
     /// An error when the journal has left the bore: its axis misses a ring by more than the
     /// bore radius, or an end ring falls outside the journal's length (flange to flange).
     pub fn check(&self, poses: &[Pose]) -> Result<(), String> {
