@@ -32,6 +32,13 @@ pub enum Measure {
     /// The angle of one body relative to another about an axis fixed in the first, from
     /// the written configuration (a revolute-clearance joint's angle), rad.
     RelativeAngle(RelativeAngle),
+    /// The angle of body b's frame from body a's about an axis of a's frame (rad): zero
+    /// where the frames are aligned, whatever the written configuration.
+    FrameAngle {
+        a: BodyRef,
+        b: BodyRef,
+        axis_a: Vector3<f64>,
+    },
     /// Velocity of a material point of a body (m/s), as `part` of the world vector.
     PointVelocity {
         body: usize,
@@ -193,6 +200,25 @@ fn world_point(poses: &[Pose], (body, p): &(BodyRef, Vector3<f64>)) -> Vector3<f
 }
 
 impl Measure {
+    /// How long before the state's time the value stands: a force read off the last step's
+    /// impulse is the step's mean, which stands at its middle (h/2); a state quantity at the
+    /// step's end (0). Reading a step mean at the step's end would shift it by h/2, an O(h)
+    /// error in anything interpolated in time (a value `at` an instant, a crossing).
+    pub fn lag(&self, sim: &Simulation) -> f64 {
+        let step_mean = match self {
+            Measure::ContactForce(_) | Measure::Impulse(_) | Measure::Reaction { .. } => true,
+            Measure::DriveEffort(j) => {
+                matches!(sim.model.joints[*j].drive, Some(Drive::Position(_)))
+            }
+            _ => false,
+        };
+        if step_mean && sim.stats.steps > 0 {
+            0.5 * sim.h()
+        } else {
+            0.0
+        }
+    }
+
     pub fn value(&self, sim: &Simulation) -> f64 {
         match self {
             Measure::Gap(ids) => ids
@@ -205,6 +231,9 @@ impl Measure {
             Measure::Impulse(ids) => ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>(),
             Measure::Coordinate(j) => sim.model.joints[*j].coordinate(&sim.state.poses),
             Measure::RelativeAngle(g) => g.0.angle(&sim.state.poses).0,
+            Measure::FrameAngle { a, b, axis_a } => {
+                crate::mechanics::force::frame_angle(*a, *b, axis_a, &sim.state.poses)
+            }
             Measure::PointVelocity { body, point, part } => {
                 let pose = &sim.state.poses[*body];
                 let tw = sim.state.twist(*body);
@@ -459,6 +488,7 @@ impl<'a> ProbeRecorder<'a> {
                     direction,
                 } => {
                     let v = measure.value(sim);
+                    let t = t - measure.lag(sim);
                     let hit = g.previous.and_then(|(t0, v0)| {
                         let up = v0 < *threshold && v >= *threshold;
                         let down = v0 > *threshold && v <= *threshold;
@@ -496,6 +526,7 @@ impl<'a> ProbeRecorder<'a> {
             }
             if *reduce == Reduce::At {
                 let v = measure.value(sim);
+                let t = t - measure.lag(sim);
                 if let Some(at) = at.and_then(|r| self.time(r)) {
                     let g = &mut self.progress[i];
                     if t >= at - half_step * 1e-6 {

@@ -5,6 +5,8 @@
 use mc_study::study::converge::{sweep, Fidelity, Ladder};
 use mc_study::study::subject::Subject;
 use mc_study::study::Study;
+mod common;
+
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -155,4 +157,46 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     // the CSV: a header and one line per run and output
     let csv = conv.csv();
     assert_eq!(csv.lines().count(), 1 + 6 * 3 * conv.outputs.len());
+}
+
+/// An output that grows as 1/h (the peak contact force of a rigid impact) gets converge's
+/// verdict and is left out of the recommendation; the impact's impulse, which converges,
+/// is not flagged.
+#[test]
+fn a_peak_impact_force_is_judged_step_dependent() {
+    let dir = common::scratch("converge-peak");
+    let ball = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/bouncing-ball/scene.yaml");
+    let scene = std::fs::read_to_string(ball).unwrap()
+        + "  - { name: peak_force, measure: { contact_force: floor }, reduce: max, to: second_impact_time }\n"
+        + "  - { name: impact, measure: { impulse: floor }, reduce: max, to: second_impact_time }\n";
+    std::fs::write(dir.join("scene.yaml"), scene).unwrap();
+    std::fs::write(
+        dir.join("study.yaml"),
+        "scene: scene.yaml\nsamples: 1\nparameters:\n  - { path: contacts.floor.e, distribution: { fixed: 0.9 } }\noutputs: [first_impact_time, peak_force, impact]\n",
+    )
+    .unwrap();
+    let study = Study::load(&dir.join("study.yaml"), None).unwrap();
+    let Subject::Mechanism(scene) = &study.subject else {
+        panic!("a mechanism")
+    };
+    assert!(
+        scene.probes[3].caution.is_some(),
+        "the peak is cautioned at load"
+    );
+    let mut ladder = Ladder::around(&scene.params, 0);
+    ladder.fidelities.truncate(5);
+    let conv = sweep(&study, &ladder, None, |_, _, _| {}).unwrap();
+    let drifting: Vec<&str> = conv
+        .step_dependent()
+        .iter()
+        .map(|d| conv.outputs[d.output].0.as_str())
+        .collect();
+    assert_eq!(drifting, ["peak_force"], "{conv}");
+    let text = conv.to_string();
+    assert!(
+        text.contains("(!) peak_force: does not converge with h"),
+        "{text}"
+    );
+    // the recommendation judges the converging outputs only
+    assert!(conv.recommend(1e-2).is_some());
 }

@@ -16,7 +16,7 @@ use crate::mechanics::Model;
 use nalgebra::Vector3;
 
 /// Builds the scene of the document `spec` (from `file`), tuned by `tuning`.
-pub(super) fn build(spec: SceneSpec, file: &str, tuning: Vec<Tuning>) -> Result<Scene, SceneError> {
+pub(crate) fn build(spec: SceneSpec, file: &str, tuning: Vec<Tuning>) -> Result<Scene, SceneError> {
     parts(spec, file, tuning).map_err(|e| e.in_file(file))
 }
 

@@ -156,6 +156,9 @@ struct Finder<'p> {
     /// How many segments the walk has matched.
     depth: usize,
     value: Option<f64>,
+    /// Whether the value is written with the path's unit (checked by the builder) rather
+    /// than as a plain SI number.
+    with_unit: bool,
     /// The dimension of the value at the path, once found; or why the path names no
     /// number although it names a part of the document.
     found: Option<Result<Dim, String>>,
@@ -172,9 +175,12 @@ impl Finder<'_> {
         self.found = Some(r);
     }
 
-    fn set(&self, q: &mut Quantity) {
+    fn set(&self, q: &mut Quantity, dim: Dim) {
         if let Some(v) = self.value {
-            *q = Quantity { si: v, dim: None };
+            *q = Quantity {
+                si: v,
+                dim: self.with_unit.then_some(dim),
+            };
         }
     }
 
@@ -187,8 +193,10 @@ impl Finder<'_> {
 impl Visitor for Finder<'_> {
     fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim) {
         if self.below(name) == Some(&[]) {
-            if let Some(v) = self.value {
-                *q = Some(written(v));
+            if self.value.is_some() {
+                let mut w = written(0.0);
+                self.set(&mut w.value, dim);
+                *q = Some(w);
             }
             self.found(Ok(dim));
         }
@@ -196,7 +204,7 @@ impl Visitor for Finder<'_> {
 
     fn required(&mut self, name: &str, q: &mut Q, dim: Dim) {
         if self.below(name) == Some(&[]) {
-            self.set(&mut q.value);
+            self.set(&mut q.value, dim);
             self.found(Ok(dim));
         }
     }
@@ -235,7 +243,7 @@ impl Visitor for Finder<'_> {
         match rest {
             [c] => match Finder::component(c, len) {
                 Some(k) => {
-                    self.set(&mut v.value[k]);
+                    self.set(&mut v.value[k], dim);
                     self.found(Ok(dim));
                 }
                 None => self.found(Err(format!(
@@ -259,7 +267,7 @@ impl Visitor for Finder<'_> {
         };
         match cell {
             Some((r, c)) if r < t.value.len() && c < t.value[r].len() && c < dims.len() => {
-                self.set(&mut t.value[r][c]);
+                self.set(&mut t.value[r][c], dims[c]);
                 self.found(Ok(dims[c]));
             }
             _ => self.found(Err(format!(
@@ -626,14 +634,19 @@ impl Node for JointSpec {
             let d = &mut d.value;
             v.node(
                 "drive",
+                // the drive's numbers are those of the one kind it is
                 &mut With(|v: &mut dyn Visitor| {
-                    v.scalar("velocity", &mut d.velocity, rate);
+                    if d.velocity.is_some() {
+                        v.scalar("velocity", &mut d.velocity, rate);
+                    }
                     v.table(
                         "position_table",
                         &mut d.position_table,
                         &[Dim::TIME, coordinate],
                     );
-                    v.scalar("effort", &mut d.effort, effort);
+                    if d.effort.is_some() {
+                        v.scalar("effort", &mut d.effort, effort);
+                    }
                     v.table("effort_table", &mut d.effort_table, &[Dim::TIME, effort]);
                 }),
             );
@@ -715,11 +728,22 @@ pub(super) fn paths(spec: &SceneSpec) -> Vec<ParameterPath> {
 /// The dimension of the number at `path`, writing `value` there if given; the error says
 /// why the path names no number, with the nearest paths there are.
 pub(super) fn find(spec: &mut SceneSpec, path: &str, value: Option<f64>) -> Result<Dim, String> {
+    find_as(spec, path, value, false)
+}
+
+/// [`find`], writing the value with the path's unit when `with_unit`.
+fn find_as(
+    spec: &mut SceneSpec,
+    path: &str,
+    value: Option<f64>,
+    with_unit: bool,
+) -> Result<Dim, String> {
     let segments: Vec<&str> = path.split('.').collect();
     let mut finder = Finder {
         target: &segments,
         depth: 0,
         value,
+        with_unit,
         found: None,
     };
     spec.visit(&mut finder);
@@ -766,6 +790,38 @@ fn edit_distance(a: &str, b: &str) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every path of every bundled scene, written back with its value in the unit the path
+    /// declares, is accepted by the builder, which checks units against what each field
+    /// expects: the dimensions listed here agree with the builder's.
+    #[test]
+    fn declared_dimensions_agree_with_the_builder() {
+        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(studies).unwrap() {
+            let path = entry.unwrap().path().join("scene.yaml");
+            let text = std::fs::read_to_string(&path).unwrap();
+            let Ok(spec) = serde_saphyr::from_str::<SceneSpec>(&text) else {
+                continue; // a function scene
+            };
+            for p in paths(&spec) {
+                let mut s = spec.clone();
+                let value = p.value.unwrap_or(1.0);
+                find_as(&mut s, &p.path, Some(value), true).unwrap();
+                if let Err(e) = super::super::build::build(s, "check", Vec::new()) {
+                    assert!(
+                        !e.message.contains("has a unit of"),
+                        "{}: `{}` declared {}: {e}",
+                        path.display(),
+                        p.path,
+                        p.dim.describe()
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 300, "only {checked} paths checked");
+    }
 
     #[test]
     fn edit_distance_counts_edits() {

@@ -234,6 +234,21 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
             Dim::LENGTH,
         ));
     }
+    let frames = match s.zero.as_ref().map(|z| (z.value.as_str(), z)) {
+        None | Some(("written", _)) => false,
+        Some(("frames", _)) if s.angle.is_some() => true,
+        Some((other, z)) => {
+            return Err(SceneError::at(
+                line(z),
+                f("zero"),
+                if s.angle.is_some() {
+                    format!("unknown zero `{other}` (written, frames)")
+                } else {
+                    "`zero` goes with a joint `angle`".into()
+                },
+            ))
+        }
+    };
     if let Some(n) = s.angle.as_ref().or(s.displacement.as_ref()) {
         let (key, prismatic_wanted) = if s.angle.is_some() {
             ("angle", false)
@@ -262,7 +277,29 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
                     ));
                 }
                 let dim = if prismatic { Dim::LENGTH } else { Dim::NONE };
+                if frames {
+                    let joint = &model.joints[j];
+                    return Ok((
+                        Measure::FrameAngle {
+                            a: joint.a,
+                            b: joint.b,
+                            axis_a: joint.axis_a,
+                        },
+                        dim,
+                    ));
+                }
                 Ok((Measure::Coordinate(j), dim))
+            }
+            JointName::Clearance(j) if !prismatic_wanted && frames => {
+                let c = &model.clearance_joints[j];
+                Ok((
+                    Measure::FrameAngle {
+                        a: c.bore_body,
+                        b: c.journal_body,
+                        axis_a: c.bore_axis,
+                    },
+                    Dim::NONE,
+                ))
             }
             JointName::Clearance(j) if !prismatic_wanted => {
                 let c = &model.clearance_joints[j];

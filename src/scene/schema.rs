@@ -378,6 +378,9 @@ pub struct MeasureSpec {
     pub axis: Option<Vector>,
     pub frame: Option<Name>,
     pub angle_from: Option<Vector>,
+    /// Where a joint `angle` is zero: `written` (the written configuration, the default)
+    /// or `frames` (the two bodies' frames aligned).
+    pub zero: Option<Name>,
 }
 
 /// (p_to − p_from) · axis, with the axis fixed in the world (default) or in a body's frame.

@@ -406,10 +406,10 @@ impl Convergence {
     }
 
     /// The outputs whose values move further apart as h falls: along the step ladder, the
-    /// change between the two finest steps exceeds the change between the two coarsest
-    /// (largest over the samples, and beyond round-off). Such an output depends on the step
-    /// size itself: the peak of an impulsive force (∝ 1/h in a rigid model) or a chaotic
-    /// quantity. Refining h does not converge it.
+    /// change between the two finest steps is more than twice the change between the two
+    /// coarsest (largest over the samples, and beyond round-off). Such an output depends on
+    /// the step size itself: the peak of an impulsive force (∝ 1/h in a rigid model) or a
+    /// chaotic quantity. Refining h does not converge it.
     pub fn step_dependent(&self) -> Vec<Drift> {
         let ladder = self.step_ladder();
         if ladder.len() < 3 {
@@ -435,7 +435,7 @@ impl Convergence {
                         .map(|r| r.outputs[k].abs())
                         .fold(0.0, f64::max),
                 };
-                (fine > coarse && fine > 1e-6 * scale).then_some(Drift {
+                (fine > 2.0 * coarse && fine > 1e-6 * scale).then_some(Drift {
                     output: k,
                     coarse,
                     fine,
@@ -534,6 +534,7 @@ impl fmt::Display for Convergence {
         f.write_str(&self.table())?;
         for d in self.step_dependent() {
             let (name, unit) = &self.outputs[d.output];
+            let unit = if unit == "1" { "" } else { unit.as_str() };
             writeln!(
                 f,
                 "(!) {name}: does not converge with h: it changes by {:.3e} {unit} from h = {:e} to {:e} s, and by {:.3e} {unit} from h = {:e} to {:e} s. It depends on the step size itself (the peak of an impulsive force grows as 1/h in a rigid model; a chaotic quantity changes at random): refining h makes it no better. Measure a converged quantity instead (an impact impulse, a window mean), or report its statistics over a study. It is left out of the recommendation.",
