@@ -1,4 +1,4 @@
-//! Bouncing ball (benchmarks.md §1): a Newton–Euler sphere with the Newton impact law,
+//! Bouncing ball: a Newton–Euler sphere with the Newton impact law,
 //! against closed-form impact times, the Zeno point, rest impulses and energy.
 
 mod common;

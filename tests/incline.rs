@@ -1,4 +1,4 @@
-//! Block on an incline with Coulomb friction, 4 corner contacts in 3D (benchmarks.md §8):
+//! Block on an incline with Coulomb friction, 4 corner contacts in 3D:
 //! exact stopping time, no creep after sticking, the sliding acceleration, and friction
 //! opposite to the sliding velocity for an oblique start.
 

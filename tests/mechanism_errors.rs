@@ -237,6 +237,16 @@ fn each_measure_refuses_what_it_cannot_measure() {
             "probes[1].unit",
             "unknown unit `furlong`",
         ),
+        (
+            "{ name: wall_ms, measure: { angle: pivot } }",
+            "probes[1].name",
+            "the results' own columns",
+        ),
+        (
+            "{ name: sample_id, measure: { angle: pivot } }",
+            "probes[1].name",
+            "the results' own columns",
+        ),
     ] {
         let e = probe_error(probe);
         assert!(e.starts_with(&probe_line()), "{probe}: wrong line in {e}");

@@ -20,7 +20,7 @@ const GUARD_DEPTH: f64 = 0.5;
 const SEPARATION_SPEED: f64 = 1e-9;
 
 impl Simulation {
-    /// The combined projection + activation loop (`moreau_jean.md` §4.3), started from the
+    /// The combined projection + activation loop (docs/method.md), started from the
     /// previous step's active set (kept while pressed or closed; guards are not kept, they
     /// are chosen afresh each step): the active set, the velocity step, the end-of-step
     /// poses, the contact points evaluated there, and the contacts that closed.

@@ -326,16 +326,17 @@ impl fmt::Display for Assembly {
                 "assembly         bodies moved to close the joints (largest residual {:.1e} after {} iterations):",
                 self.residual, self.iterations
             )?;
+            // bodies moved by round-off alone are left out
             for b in self
                 .bodies
                 .iter()
-                .filter(|b| b.translation > 0.0 || b.rotation > 0.0)
+                .filter(|b| b.translation > 1e-9 || b.rotation > 1e-9)
             {
                 writeln!(
                     f,
-                    "  {:<16} moved {:.4} mm, turned {:.4}°",
+                    "  {:<16} moved {:.3} µm, turned {:.4}°",
                     b.body,
-                    b.translation * 1e3,
+                    b.translation * 1e6,
                     b.rotation.to_degrees()
                 )?;
             }

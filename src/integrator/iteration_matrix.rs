@@ -1,5 +1,5 @@
 //! The iteration matrix W = M − hθ ∂F/∂v − h²θ² ∂F/∂ν of the θ-scheme's Newton loop
-//! (`moreau_jean.md` §2.2), with ν the body-frame tangent coordinates of the poses.
+//! (docs/method.md), with ν the body-frame tangent coordinates of the poses.
 //!
 //! The gyroscopic Jacobian is analytic, and so are the torsional springs' stiffness and
 //! damping (`Force::stiffness_jacobian`, `Force::damping_jacobian`); those of the other force

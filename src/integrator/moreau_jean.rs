@@ -1,4 +1,4 @@
-//! One velocity-level step of the Moreau–Jean θ-scheme (`moreau_jean.md` §2):
+//! One velocity-level step of the Moreau–Jean θ-scheme (docs/method.md, "One step"):
 //!
 //! M (v₁ − v₀) − h[θ F(t₁, q₁, v₁) + (1 − θ) F(t₀, q₀, v₀)] = Σ_α G_αᵀ P_α,
 //! q₁ = q₀ ⊕ h v_θ, with the active contacts' impulses from FC3D on the shifted local

@@ -1,4 +1,4 @@
-//! Position projection onto the constraint manifolds (`moreau_jean.md` §4), in twist
+//! Position projection onto the constraint manifolds (docs/method.md, "Activation and projection"), in twist
 //! coordinates with the mass metric: with C the gradients of the projected rows,
 //! solve (C M⁻¹ Cᵀ) Λ = −c(q) (equality rows; complementarity for contacts in direct
 //! projection), Δν = M⁻¹ Cᵀ Λ and q ← q ⊕ Δν through the Lie-group update, so |p| = 1

@@ -15,7 +15,7 @@ pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
 /// Exponential map of the unit quaternions: the rotation by the rotation vector `phi`,
 /// `expq(φ) = (cos(θ/2), sin(θ/2)/θ · φ)` with θ = |φ|. Uses the series of sin(θ/2)/θ
 /// near zero so that tiny increments lose no digits. The result is unit to round-off, and
-/// no renormalisation is applied (see `rigid_bodies.md` §3).
+/// no renormalisation is applied (docs/method.md).
 #[inline]
 pub fn expq(phi: &Vector3<f64>) -> UnitQuaternion<f64> {
     let th2 = phi.norm_squared();

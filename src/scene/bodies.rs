@@ -11,11 +11,11 @@ use nalgebra::Matrix3;
 pub(super) fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
     let f = |s: &str| format!("bodies[{i}].{s}");
     let name = spec.name.value.clone();
-    if name.is_empty() || name == "ground" {
+    if name.is_empty() || name == "ground" || name.contains('.') {
         return Err(SceneError::at(
             line(&spec.name),
             f("name"),
-            "must be non-empty and not the reserved name `ground`",
+            "must be non-empty, without `.` (names are parts of parameter paths), and not the reserved name `ground`",
         ));
     }
     let motion = match spec.motion.as_ref().map(|m| m.value.as_str()) {

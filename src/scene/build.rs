@@ -63,6 +63,13 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
     }
     let mut targets = Targets::default();
     for (i, j) in spec.joints.iter().enumerate() {
+        if j.name.value.is_empty() || j.name.value.contains('.') {
+            return Err(SceneError::at(
+                line(&j.name),
+                format!("joints[{i}].name"),
+                "must be non-empty and without `.` (names are parts of parameter paths)",
+            ));
+        }
         if model.joints.iter().any(|k| k.name == j.name.value)
             || model
                 .clearance_joints

@@ -100,6 +100,13 @@ impl FunctionScene {
         }
         let mut outputs: Vec<FunctionOutput> = Vec::new();
         for (i, o) in spec.outputs.iter().enumerate() {
+            if let Some(why) = crate::study::store::column_name_error(&o.name.value) {
+                return Err(SceneError::at(
+                    line(&o.name),
+                    format!("outputs[{i}].name"),
+                    why,
+                ));
+            }
             if outputs.iter().any(|p| p.name == o.name.value) {
                 return Err(SceneError::at(
                     line(&o.name),

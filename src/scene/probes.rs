@@ -566,6 +566,9 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
     let mut out: Vec<Probe> = Vec::new();
     for (i, p) in specs.iter().enumerate() {
         let f = |s: &str| format!("probes[{i}].{s}");
+        if let Some(why) = crate::study::store::column_name_error(&p.name.value) {
+            return Err(SceneError::at(line(&p.name), f("name"), why));
+        }
         if out.iter().any(|q| q.name == p.name.value) {
             return Err(SceneError::at(
                 line(&p.name),

@@ -23,6 +23,16 @@ pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize) -> R<ContactPair
         c.mu.as_ref()
             .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
     let e = restitution(&c.e, &f("e"))?;
+    if c.name
+        .as_ref()
+        .is_some_and(|n| n.is_empty() || n.contains('.'))
+    {
+        return Err(SceneError::at(
+            line(&c.body),
+            f("name"),
+            "must be non-empty and without `.` (names are parts of parameter paths)",
+        ));
+    }
     let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
     ContactPair::new(
         name,

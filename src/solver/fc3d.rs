@@ -1,6 +1,6 @@
 //! FC3D(W, q, μ): find u, r ∈ R^{3n} with u = W r + q and, per contact,
 //! K* ∋ û ⟂ r ∈ K, where K = {‖r_T‖ ≤ μ r_N} and û = u + (μ‖u_T‖, 0, 0)
-//! (`contact_solvers.md` §1). Components are ordered (N, T1, T2) per contact.
+//! Components are ordered (N, T1, T2) per contact.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
@@ -23,7 +23,7 @@ pub struct SolverStatus {
     pub residual: f64,
 }
 
-/// Projection onto the Coulomb cone K_μ (closed form, `contact_solvers.md` §2.1).
+/// Projection onto the Coulomb cone K_μ (closed form).
 #[inline]
 pub fn project_on_cone(r: &Vector3<f64>, mu: f64) -> Vector3<f64> {
     let t = (r.y * r.y + r.z * r.z).sqrt();

@@ -1,7 +1,7 @@
 //! Linear problems with equality and complementarity rows, `w = A z + c`:
 //! equality rows have w = 0; inequality rows have 0 ≤ w ⟂ z ≥ 0. Used to eliminate the
 //! bilateral joint rows from the one-step problem (Schur complement) and for the
-//! position projection (`contact_solvers.md` §5).
+//! position projection.
 
 use nalgebra::{DMatrix, DVector, Dyn, LU};
 

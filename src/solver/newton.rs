@@ -1,5 +1,5 @@
 //! Global Alart–Curnier nonsmooth Newton on the whole FC3D problem (dense), the second
-//! solver of `contact_solvers.md` §4 and §6.3: quadratic convergence where Gauss–Seidel
+//! solver of Alart and Curnier (docs/method.md): quadratic convergence where Gauss–Seidel
 //! crawls, e.g. two contacts a few millimetres apart on a long body (the two rings of a
 //! clearance joint), whose Delassus matrix is ill-conditioned.
 
@@ -124,7 +124,7 @@ pub fn global_newton(
     (natural_map_error(p, r) <= tolerance).then_some(max_iterations)
 }
 
-/// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r) (`contact_solvers.md` §4), each
+/// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r), each
 /// solved by the global Newton method, whose Jacobian the shift η makes nonsingular. For
 /// the jammed, rank-deficient problems where Gauss–Seidel stalls and the plain Newton's line
 /// search stops (a journal wedged between the two rings and a flange of a clearance joint

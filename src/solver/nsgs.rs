@@ -1,5 +1,5 @@
 //! Nonsmooth Gauss–Seidel for FC3D with a one-contact Alart–Curnier Newton method and a
-//! self-adaptive projection fallback (`contact_solvers.md` §3). Contacts are swept in index
+//! self-adaptive projection fallback. Contacts are swept in index
 //! order, so results are deterministic; the caller passes the previous impulses as the
 //! warm start.
 

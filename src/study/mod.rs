@@ -1,6 +1,6 @@
 //! Monte-Carlo studies: the study file (scene, design, input distributions, outputs,
 //! limits, fidelity), the sampled inputs of each run, the parallel runner and its Parquet
-//! store, merging, and the summary statistics. See DESIGN.md §5.
+//! store, merging, and the summary statistics. See docs/studies.md.
 
 pub mod converge;
 pub mod design;

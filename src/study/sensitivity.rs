@@ -1,4 +1,4 @@
-//! Which input drives which output (`reference/sensitivity.md`):
+//! Which input drives which output (docs/statistics.md):
 //! - from any design, standardised regression coefficients SRC (and SRRC on ranks) with the
 //!   model's R²: for a linear model with independent inputs SRC_j² is the share of the
 //!   output's variance due to input j, and R² says how far that reading can be trusted;

@@ -65,7 +65,7 @@ pub const DIAGNOSTICS: [(&str, &str, &str); 5] = [
     ),
 ];
 
-/// Column names no input or output may take.
+/// Column names no input or output may take: those of the results' own columns.
 pub const RESERVED: [&str; 8] = [
     "sample_id",
     "status",
@@ -76,6 +76,20 @@ pub const RESERVED: [&str; 8] = [
     "nonconverged_steps",
     "wall_ms",
 ];
+
+/// Why `name` cannot name an output column, if it cannot: a reserved column's name, or a
+/// name that is empty.
+pub fn column_name_error(name: &str) -> Option<String> {
+    if name.trim().is_empty() {
+        return Some("must not be empty".into());
+    }
+    RESERVED.contains(&name).then(|| {
+        format!(
+            "`{name}` is the name of one of the results' own columns ({}); choose another",
+            RESERVED.join(", ")
+        )
+    })
+}
 
 /// Parquet key-value metadata keys.
 pub const META_HASH: &str = "mc_study.study_hash";

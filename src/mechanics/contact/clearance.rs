@@ -1,4 +1,4 @@
-//! Revolute joint with radial and axial clearance (`clearance_joints.md` §2–3): a bore of
+//! Revolute joint with radial and axial clearance (docs/clearance-joint.md): a bore of
 //! radius R_B = R_J + c and length L_B on body B, a journal of radius R_J on body J, and
 //! flanges on the journal at both ends of the bore. It is a set of unilateral frictional
 //! contacts, no compliance:

@@ -1,7 +1,7 @@
 //! Unilateral frictional contacts: a pair of primitives on two bodies expands into a fixed
 //! list of candidate points. Each candidate gives its gap, local frame (n, t1, t2) and the
 //! 3×6 Jacobian blocks G₁, G₂ mapping the body twists to the local relative velocity
-//! (`rigid_bodies.md` §5: the lever arm of both bodies is taken at the point on body 1).
+//! (the lever arm of both bodies is taken at the point on body 1).
 
 pub mod clearance;
 pub mod primitives;
