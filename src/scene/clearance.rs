@@ -2,7 +2,9 @@
 //! placed from a world anchor and axis or from body-frame ones.
 
 use super::error::{line, SceneError};
-use super::fields::{count, non_negative, opt_vec3, positive, restitution, unit_vec3, vec3, R};
+use super::fields::{
+    count, given, non_negative, opt_vec3, positive, restitution, unit_vec3, vec3, R,
+};
 use super::joints::{joint_bodies, BuiltJoint};
 use super::schema::{JointSpec, Vector, Q};
 use super::units::Dim;
@@ -13,15 +15,13 @@ use nalgebra::Vector3;
 /// Joint `i`, a revolute joint with clearance, with the journal's initial eccentricity.
 pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
     let f = |s: &str| format!("joints[{i}].{s}");
+    let l = line(&spec.name);
     let required = |q: &Option<Q>, name: &str, dim: Dim| -> R<f64> {
-        let q = q.as_ref().ok_or_else(|| {
-            SceneError::at(
-                line(&spec.name),
-                f(name),
-                "is required for a revolute-clearance joint",
-            )
-        })?;
-        positive(q, dim, &f(name))
+        positive(
+            given(q, l, &f(name), "for a revolute-clearance joint")?,
+            dim,
+            &f(name),
+        )
     };
     let (a, b) = joint_bodies(model, spec, i)?;
     if spec.drive.is_some() || spec.limits.is_some() {
@@ -43,21 +43,14 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
     let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
     let (bore_center, bore_axis, journal_point, journal_axis) =
         if spec.anchor.is_some() || spec.axis.is_some() {
-            let anchor = spec.anchor.as_ref().ok_or_else(|| {
-                SceneError::at(
-                    line(&spec.name),
-                    f("anchor"),
-                    "is required (bore centre, world, at assembly)",
-                )
-            })?;
+            let anchor = given(
+                &spec.anchor,
+                l,
+                &f("anchor"),
+                "(bore centre, world, at assembly)",
+            )?;
             let anchor = vec3(anchor, Dim::LENGTH, &f("anchor"))?;
-            let axis = spec.axis.as_ref().ok_or_else(|| {
-                SceneError::at(
-                    line(&spec.name),
-                    f("axis"),
-                    "is required for a revolute-clearance joint",
-                )
-            })?;
+            let axis = given(&spec.axis, l, &f("axis"), "for a revolute-clearance joint")?;
             let axis = unit_vec3(axis, &f("axis"))?;
             let (pa, pb) = (pose(a), pose(b));
             (
@@ -67,29 +60,17 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
                 pb.p.inverse_transform_vector(&axis),
             )
         } else {
-            fn need(v: &Option<Vector>, field: String, l: Option<u64>) -> R<&Vector> {
-                v.as_ref().ok_or_else(|| {
-                    SceneError::at(
-                        l,
-                        field,
-                        "is required (or give anchor and axis in world coordinates)",
-                    )
-                })
-            }
-            let l = line(&spec.name);
+            let why = "(or give anchor and axis in world coordinates)";
+            let point = |v: &Option<Vector>, name: &str| {
+                vec3(given(v, l, &f(name), why)?, Dim::LENGTH, &f(name))
+            };
+            let direction =
+                |v: &Option<Vector>, name: &str| unit_vec3(given(v, l, &f(name), why)?, &f(name));
             (
-                vec3(
-                    need(&spec.anchor_a, f("anchor_a"), l)?,
-                    Dim::LENGTH,
-                    &f("anchor_a"),
-                )?,
-                unit_vec3(need(&spec.axis_a, f("axis_a"), l)?, &f("axis_a"))?,
-                vec3(
-                    need(&spec.anchor_b, f("anchor_b"), l)?,
-                    Dim::LENGTH,
-                    &f("anchor_b"),
-                )?,
-                unit_vec3(need(&spec.axis_b, f("axis_b"), l)?, &f("axis_b"))?,
+                point(&spec.anchor_a, "anchor_a")?,
+                direction(&spec.axis_a, "axis_a")?,
+                point(&spec.anchor_b, "anchor_b")?,
+                direction(&spec.axis_b, "axis_b")?,
             )
         };
     let clearance = required(&spec.clearance, "clearance", Dim::LENGTH)?;

@@ -11,6 +11,13 @@ use serde_saphyr::Spanned;
 
 pub(super) type R<T> = Result<T, SceneError>;
 
+/// The value of a field the scene must give; without it, an error at `at` saying it is
+/// required, and `why`.
+pub(super) fn given<'a, T>(v: &'a Option<T>, at: Option<u64>, field: &str, why: &str) -> R<&'a T> {
+    v.as_ref()
+        .ok_or_else(|| SceneError::at(at, field, format!("is required {why}")))
+}
+
 pub(super) fn scalar(q: &Q, dim: Dim, field: &str) -> R<f64> {
     let v = q
         .value

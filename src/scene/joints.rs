@@ -3,7 +3,7 @@
 
 use super::clearance::clearance_joint;
 use super::error::{line, SceneError};
-use super::fields::{body_ref, opt_vec3, restitution, scalar, unit_vec3, vec3, R};
+use super::fields::{body_ref, given, opt_vec3, restitution, scalar, unit_vec3, vec3, R};
 use super::schema::{JointSpec, Vector};
 use super::units::{Dim, Quantity};
 use crate::integrator::assembly::JointStart;
@@ -251,26 +251,27 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
     if world && local {
         return Err(SceneError::at(line(&spec.name), f("anchor"), "give `anchor`/`axis` (world) or `anchor_a`, `anchor_b`, `axis_a`, `axis_b` (body frames), not both"));
     }
+    // a spherical joint has no axis: z stands in
     let needs_axis = kind != JointKind::Spherical;
-    let joint = if world || !local {
-        let anchor = spec.anchor.as_ref().ok_or_else(|| {
-            SceneError::at(
+    let axis_of = |x: &Option<Vector>, n: &str| -> R<Vector3<f64>> {
+        match x {
+            Some(x) => unit_vec3(x, &f(n)),
+            None if needs_axis => Err(SceneError::at(
                 line(&spec.name),
-                f("anchor"),
-                "is required (world point at the assembled configuration)",
-            )
-        })?;
-        let axis = match &spec.axis {
-            Some(x) => unit_vec3(x, &f("axis"))?,
-            None if needs_axis => {
-                return Err(SceneError::at(
-                    line(&spec.name),
-                    f("axis"),
-                    format!("is required for a {} joint", kind.name()),
-                ))
-            }
-            None => Vector3::z(),
-        };
+                f(n),
+                format!("is required for a {} joint", kind.name()),
+            )),
+            None => Ok(Vector3::z()),
+        }
+    };
+    let joint = if world || !local {
+        let anchor = given(
+            &spec.anchor,
+            line(&spec.name),
+            &f("anchor"),
+            "(world point at the assembled configuration)",
+        )?;
+        let axis = axis_of(&spec.axis, "axis")?;
         Joint::from_world(
             spec.name.value.clone(),
             kind,
@@ -282,17 +283,6 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
             drive,
         )
     } else {
-        let axis_of = |x: &Option<Vector>, n: &str| -> R<Vector3<f64>> {
-            match x {
-                Some(x) => unit_vec3(x, &f(n)),
-                None if needs_axis => Err(SceneError::at(
-                    line(&spec.name),
-                    f(n),
-                    format!("is required for a {} joint", kind.name()),
-                )),
-                None => Ok(Vector3::z()),
-            }
-        };
         Joint::new(
             spec.name.value.clone(),
             kind,
