@@ -10,11 +10,11 @@ use mc_study::study::manifest::Manifest;
 use mc_study::study::merge::{merge, status};
 use mc_study::study::runner::{self, RunOptions, Shard};
 use mc_study::study::slurm::{sbatch, write_scripts, SlurmOptions};
+use mc_study::study::stop_signals::StopSignals;
 use mc_study::study::subject::Subject;
 use mc_study::study::summary::Summary;
 use mc_study::study::Study;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::Ordering;
 
 #[derive(Parser)]
 #[command(
@@ -33,8 +33,9 @@ enum Command {
     /// Runs a Monte-Carlo study: samples the study's parameters, simulates every sample in
     /// parallel and stores one row per sample in OUT/parts/*.parquet. Rerunning the same
     /// command resumes (completed samples are skipped); a complete unsharded run merges into
-    /// OUT/results.parquet and prints the summary. Ctrl-C stops after writing the samples
-    /// done; a second Ctrl-C exits at once.
+    /// OUT/results.parquet and prints the summary. Ctrl-C, SIGTERM (a scheduler's time limit,
+    /// preemption or scancel) and SIGHUP stop the run after writing every finished sample,
+    /// with exit status 128 + the signal's number; a second signal exits at once.
     Run {
         /// Study YAML file (see studies/*/study.yaml).
         study: PathBuf,
@@ -393,8 +394,8 @@ struct RunArgs {
     part_seconds: f64,
 }
 
-/// Runs a study; `Ok(false)` when interrupted (the samples done are saved).
-fn run(study: &Path, args: RunArgs) -> Result<bool> {
+/// Runs a study; `Ok(Some(status))` when a stop signal came (the samples done are saved).
+fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
     let study = Study::load(study, args.samples)?;
     if args.threads == Some(0) {
         bail!("--threads must be ≥ 1");
@@ -409,15 +410,7 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
     opts.progress = !args.quiet;
     opts.rows_per_part = args.part_rows;
     opts.seconds_per_part = args.part_seconds;
-    let stop = opts.stop.clone();
-    ctrlc::set_handler(move || {
-        if stop.swap(true, Ordering::SeqCst) {
-            eprintln!("\nsecond interrupt: exiting now; rerun the same command to resume");
-            std::process::exit(130);
-        }
-        eprintln!("\ninterrupt: finishing the samples under way and writing them (Ctrl-C again to quit at once)");
-    })
-    .context("installing the Ctrl-C handler")?;
+    let signals = StopSignals::listen(opts.stop.clone())?;
     for o in &study.outputs {
         if let Some(c) = &o.caution {
             eprintln!("caution: {c}");
@@ -445,9 +438,13 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
         r.wall_seconds,
         r.done as f64 / r.wall_seconds.max(1e-9)
     );
+    if let Some(status) = signals.exit_status() {
+        eprintln!("stopped: every finished sample is saved; rerun the same command to resume");
+        return Ok(Some(status));
+    }
     if r.interrupted {
         eprintln!("interrupted: rerun the same command to resume");
-        return Ok(false);
+        return Ok(Some(130));
     }
     if r.missing.is_empty() && opts.shard.count == 1 {
         let m = merge(&out, false)?;
@@ -470,7 +467,7 @@ fn run(study: &Path, args: RunArgs) -> Result<bool> {
             out.display()
         );
     }
-    Ok(true)
+    Ok(None)
 }
 
 fn slurm(
@@ -560,8 +557,8 @@ fn main() -> std::process::ExitCode {
                         part_seconds: *part_seconds,
                     },
                 ) {
-                    Ok(true) => Ok(()),
-                    Ok(false) => return std::process::ExitCode::from(130),
+                    Ok(None) => Ok(()),
+                    Ok(Some(status)) => return std::process::ExitCode::from(status),
                     Err(e) => Err(e),
                 },
             }

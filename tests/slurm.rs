@@ -1,5 +1,6 @@
 //! `mc-study slurm` on a real Slurm: a 4-task array, one task cancelled mid-run, its index
-//! resubmitted, the merge job run; the merged results equal a single-machine run.
+//! resubmitted, the merge job run; the merged results equal a single-machine run. Tasks
+//! stopped by scancel or by their time limit keep every sample they finished.
 //! Runs when built with MC_STUDY_SLURM=1 (`.ci/run` starts the one-node cluster of
 //! `ci/local-slurm` and sets it); otherwise it is reported as ignored.
 
@@ -66,6 +67,25 @@ fn parts_of(out: &Path, label: &str) -> Vec<std::path::PathBuf> {
         .unwrap_or_default()
 }
 
+/// The array and merge job ids in what `mc-study slurm --submit` printed:
+/// "submitted array job 12 (tasks 12_0 … 12_3) and merge job 13 (…)".
+fn job_ids(printed: &str) -> (String, String) {
+    let words: Vec<&str> = printed.split_whitespace().collect();
+    let id_after = |x: &str, y: &str| -> String {
+        let i = words
+            .windows(2)
+            .position(|w| w[0] == x && w[1] == y)
+            .unwrap_or_else(|| panic!("{printed}"));
+        words[i + 2].to_string()
+    };
+    let (job, merge_job) = (id_after("array", "job"), id_after("merge", "job"));
+    assert!(
+        job.chars().all(|c| c.is_ascii_digit()) && merge_job.chars().all(|c| c.is_ascii_digit()),
+        "{printed}"
+    );
+    (job, merge_job)
+}
+
 #[test]
 #[cfg_attr(
     not(slurm_cluster),
@@ -93,20 +113,7 @@ fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_resu
             "--submit",
         ],
     );
-    // "submitted array job 12 (tasks 12_0 … 12_3) and merge job 13 (…)"
-    let words: Vec<&str> = printed.split_whitespace().collect();
-    let id_after = |x: &str, y: &str| -> String {
-        let i = words
-            .windows(2)
-            .position(|w| w[0] == x && w[1] == y)
-            .unwrap_or_else(|| panic!("{printed}"));
-        words[i + 2].to_string()
-    };
-    let (job, merge_job) = (id_after("array", "job"), id_after("merge", "job"));
-    assert!(
-        job.chars().all(|c| c.is_ascii_digit()) && merge_job.chars().all(|c| c.is_ascii_digit()),
-        "{printed}"
-    );
+    let (job, merge_job) = job_ids(&printed);
 
     // cancel task 3 once it has written at least one part, while it still has work to do
     let task = format!("{job}_3");
@@ -195,4 +202,75 @@ fn job_array_with_a_cancelled_task_resubmitted_merges_to_the_single_machine_resu
         rows(&out.join("results.parquet")),
         rows(&single.join("results.parquet"))
     );
+}
+
+/// The samples a task's log says it ran before it stopped.
+fn reported_done(log: &str) -> usize {
+    let line = log
+        .lines()
+        .find(|l| l.contains(" samples run ("))
+        .unwrap_or_else(|| panic!("no final line in the task log:\n{log}"));
+    line.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+#[test]
+#[cfg_attr(
+    not(slurm_cluster),
+    ignore = "needs a Slurm cluster: `ci/local-slurm start`, then MC_STUDY_SLURM=1 cargo test (.ci/run does both)"
+)]
+fn tasks_stopped_by_scancel_or_their_time_limit_keep_every_finished_sample() {
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let study = study_path("bouncing-ball", "study.yaml");
+    let out = scratch("slurm-stopped");
+    // far more samples than a minute holds, and parts so large that only the flush on the
+    // signal writes them
+    let printed = sh(
+        exe,
+        &[
+            "slurm",
+            study.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "--samples",
+            "100000000",
+            "--time",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+            "--part-rows",
+            "1000000000",
+            "--submit",
+        ],
+    );
+    let (job, merge_job) = job_ids(&printed);
+    let deadline = Instant::now() + Duration::from_secs(300);
+    let log = |i: u64| {
+        std::fs::read_to_string(out.join(format!("slurm/logs/task-{i}.out"))).unwrap_or_default()
+    };
+    // task 0 is cancelled once it has run a few seconds; task 1 runs into its time limit
+    while !log(0).contains("shard 0/2") {
+        assert!(Instant::now() < deadline, "task 0 never started");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_secs(3));
+    sh("scancel", &[&format!("{job}_0")]);
+    wait_gone(&[&job, &merge_job], deadline);
+
+    let status = sh(exe, &["status", out.to_str().unwrap()]);
+    for (i, label) in [(0, "0of2"), (1, "1of2")] {
+        let log = log(i);
+        assert!(log.contains("(SIGTERM)"), "task {i}:\n{log}");
+        let saved: usize = parts_of(&out, label)
+            .iter()
+            .map(|p| store::read(p).unwrap().rows.len())
+            .sum();
+        assert!(saved > 0, "task {i} saved nothing:\n{log}");
+        assert_eq!(saved, reported_done(&log), "task {i} lost samples:\n{log}");
+        assert!(
+            status
+                .lines()
+                .any(|l| l.starts_with(&format!("{i}/2")) && l.ends_with("partial")),
+            "{status}"
+        );
+    }
 }

@@ -187,8 +187,9 @@ fn failed_samples_become_rows_with_their_reason_and_the_batch_goes_on() {
     }
 }
 
-/// SIGKILL at several random moments, then resume: exactly the samples of an uninterrupted
-/// run, none lost and none written twice.
+/// SIGKILL, SIGTERM, SIGINT and SIGHUP at random moments (during sampling, part writes
+/// and the final merge), then resume: exactly the samples of an uninterrupted run, none
+/// lost and none written twice.
 #[test]
 fn killed_runs_resume_without_losing_or_repeating_a_sample() {
     let exe = env!("CARGO_BIN_EXE_mc-study");
@@ -214,11 +215,12 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
     // deterministic "random" kill delays (ms) from a fixed LCG
     let mut state: u64 = 0x2545_f491_4f6c_dd1d;
     let mut kills = 0;
-    for _ in 0..6 {
+    for round in 0..8 {
         state = state
             .wrapping_mul(6_364_136_223_846_793_005)
             .wrapping_add(1_442_695_040_888_963_407);
         let delay = 100 + (state >> 33) % 500;
+        let signal = ["KILL", "TERM", "INT", "HUP"][round % 4];
         let mut child = Command::new(exe)
             .args(args(&out))
             .stdout(Stdio::null())
@@ -227,7 +229,10 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
             .unwrap();
         std::thread::sleep(Duration::from_millis(delay));
         if child.try_wait().unwrap().is_none() {
-            child.kill().unwrap(); // SIGKILL
+            Command::new("kill")
+                .args(["-s", signal, &child.id().to_string()])
+                .status()
+                .unwrap();
             kills += 1;
         }
         child.wait().unwrap();
@@ -257,53 +262,70 @@ fn killed_runs_resume_without_losing_or_repeating_a_sample() {
         "a sample lost or written twice"
     );
     assert_eq!(results(&out), results(&reference));
-    println!("{kills} of 6 runs killed with SIGKILL, then resumed: {n} samples, each in exactly one part, rows identical to an uninterrupted run");
+    println!("{kills} of 8 runs killed by a signal, then resumed: {n} samples, each in exactly one part, rows identical to an uninterrupted run");
 }
 
-/// Ctrl-C (SIGINT) stops starting samples, writes those done and exits with 130; the rerun
-/// resumes from there.
+/// SIGINT (Ctrl-C), SIGTERM (a scheduler's time limit or scancel) and SIGHUP stop starting
+/// samples, write every finished one and exit with 128 + the signal's number; the manifest
+/// records exactly the saved samples, so the same command resumes after them.
 #[test]
-fn interrupt_writes_the_samples_done_and_exits_cleanly() {
+fn stop_signals_write_the_samples_done_and_exit_with_128_plus_the_signal() {
     let exe = env!("CARGO_BIN_EXE_mc-study");
     let study = study_path("bouncing-ball", "study.yaml");
-    let out = scratch("sigint");
-    let args = [
-        "run",
-        study.to_str().unwrap(),
-        "--samples",
-        "2000",
-        "--out",
-        out.to_str().unwrap(),
-        "--threads",
-        "2",
-    ];
-    let child = Command::new(exe)
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(Duration::from_millis(700));
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let result = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    assert_eq!(result.status.code(), Some(130), "{stderr}");
-    assert!(
-        stderr.contains("interrupted: rerun the same command to resume"),
-        "{stderr}"
-    );
-    let saved: usize = walk(&out.join("parts"))
-        .iter()
-        .map(|p| store::read(p).unwrap().rows.len())
-        .sum();
-    assert!(saved > 0 && saved < 2000, "{saved} samples saved");
-    // the manifest records exactly the saved samples, so the same command resumes after them
-    let study = Study::load(&study_path("bouncing-ball", "study.yaml"), Some(2000)).unwrap();
-    let manifest = mc_study::study::manifest::Manifest::load(&out).unwrap();
-    assert_eq!(manifest.completed.count(), saved as u64);
-    assert_eq!(manifest.study_hash, study.hash());
+    for (signal, status) in [("INT", 130), ("TERM", 143), ("HUP", 129)] {
+        let out = scratch(&format!("sig{signal}"));
+        let args = [
+            "run",
+            study.to_str().unwrap(),
+            "--samples",
+            "100000",
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            "2",
+            // parts too large to fill: only the flush on the signal writes
+            "--part-rows",
+            "1000000",
+            "--part-seconds",
+            "1000",
+        ];
+        let child = Command::new(exe)
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(700));
+        let sent = Command::new("kill")
+            .args(["-s", signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+        let result = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(status), "SIG{signal}: {stderr}");
+        assert!(
+            stderr.contains(&format!("(SIG{signal})"))
+                && stderr.contains("rerun the same command to resume"),
+            "{stderr}"
+        );
+        let saved: usize = walk(&out.join("parts"))
+            .iter()
+            .map(|p| store::read(p).unwrap().rows.len())
+            .sum();
+        assert!(
+            saved > 0 && saved < 100000,
+            "SIG{signal}: {saved} samples saved"
+        );
+        let done: usize = stderr
+            .lines()
+            .find(|l| l.contains(" samples run ("))
+            .and_then(|l| l.split_whitespace().next()?.parse().ok())
+            .unwrap();
+        assert_eq!(saved, done, "SIG{signal}: finished samples lost");
+        let study = Study::load(&study, Some(100000)).unwrap();
+        let manifest = mc_study::study::manifest::Manifest::load(&out).unwrap();
+        assert_eq!(manifest.completed.count(), saved as u64);
+        assert_eq!(manifest.study_hash, study.hash());
+    }
 }

@@ -13,6 +13,7 @@ pub mod sensitivity;
 pub mod slurm;
 pub mod sobol;
 pub mod statistics;
+pub mod stop_signals;
 pub mod store;
 pub mod subject;
 pub mod summary;

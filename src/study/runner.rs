@@ -81,7 +81,8 @@ pub struct RunOptions {
     pub rows_per_part: usize,
     /// …or when its oldest row is this old.
     pub seconds_per_part: f64,
-    /// Set (by Ctrl-C) to stop starting samples; the rows done are written before return.
+    /// Set (by a stop signal) to stop starting samples; the rows done are written before
+    /// return.
     pub stop: Arc<AtomicBool>,
 }
 
@@ -422,12 +423,14 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
                 .0
                 .par_iter()
                 .flat_map(|&(a, b)| (a..b).into_par_iter())
-                .for_each_with(tx, |tx, i| {
+                // an Err ends the iteration at once, however many samples remain
+                .try_for_each_with(tx, |tx, i| {
                     if stop.load(Ordering::Relaxed) {
-                        return;
+                        return Err(());
                     }
-                    let _ = tx.send(study.row(i));
-                });
+                    tx.send(study.row(i)).map_err(|_| ())
+                })
+                .ok();
         });
         handle.join().expect("the writer thread does not panic")
     });

@@ -67,6 +67,9 @@ pub fn scripts(
         format!("#SBATCH --output={}/task-%a.out", logs.display()),
         "#SBATCH --open-mode=append".to_string(),
         format!("#SBATCH --cpus-per-task={}", o.cpus_per_task.unwrap_or(1)),
+        // SIGTERM a minute before the time limit: the task writes its finished samples
+        // and exits; a resubmitted task resumes the shard
+        "#SBATCH --signal=B:TERM@60".to_string(),
     ];
     directive(&mut a, "partition", &o.partition);
     directive(&mut a, "time", &o.time);
