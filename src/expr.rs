@@ -8,15 +8,27 @@
 
 use std::fmt;
 
-/// A parsed expression over inputs numbered in the order given to [`Expr::parse`].
+/// A parsed expression over inputs numbered in the order given to [`Expr::parse`], kept
+/// as a postfix program: evaluating and dropping it never recurse, so a 200,000-term sum
+/// costs memory, not stack.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Expr {
+pub struct Expr {
+    code: Vec<Instr>,
+}
+
+/// One postfix instruction: push a value, or replace the top operands by a result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Instr {
     Number(f64),
     Input(usize),
-    Neg(Box<Expr>),
-    Binary(Op, Box<Expr>, Box<Expr>),
-    Call(Func, Vec<Expr>),
+    Neg,
+    Binary(Op),
+    Call(Func),
 }
+
+/// Nesting deeper than this (parentheses, unary signs, `^` chains, calls) is refused: the
+/// parser recurses once per level, and no formula a person writes comes near it.
+pub const MAX_DEPTH: usize = 256;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Op {
@@ -46,22 +58,29 @@ pub enum Func {
 }
 
 impl Func {
-    fn parse(name: &str) -> Option<(Func, usize)> {
+    fn arity(self) -> usize {
+        match self {
+            Func::Min | Func::Max | Func::Pow | Func::Atan2 => 2,
+            _ => 1,
+        }
+    }
+
+    fn parse(name: &str) -> Option<Func> {
         Some(match name {
-            "sin" => (Func::Sin, 1),
-            "cos" => (Func::Cos, 1),
-            "tan" => (Func::Tan, 1),
-            "asin" => (Func::Asin, 1),
-            "acos" => (Func::Acos, 1),
-            "atan" => (Func::Atan, 1),
-            "exp" => (Func::Exp, 1),
-            "ln" | "log" => (Func::Ln, 1),
-            "sqrt" => (Func::Sqrt, 1),
-            "abs" => (Func::Abs, 1),
-            "min" => (Func::Min, 2),
-            "max" => (Func::Max, 2),
-            "pow" => (Func::Pow, 2),
-            "atan2" => (Func::Atan2, 2),
+            "sin" => Func::Sin,
+            "cos" => Func::Cos,
+            "tan" => Func::Tan,
+            "asin" => Func::Asin,
+            "acos" => Func::Acos,
+            "atan" => Func::Atan,
+            "exp" => Func::Exp,
+            "ln" | "log" => Func::Ln,
+            "sqrt" => Func::Sqrt,
+            "abs" => Func::Abs,
+            "min" => Func::Min,
+            "max" => Func::Max,
+            "pow" => Func::Pow,
+            "atan2" => Func::Atan2,
             _ => return None,
         })
     }
@@ -84,6 +103,8 @@ struct Parser<'a> {
     text: &'a [u8],
     pos: usize,
     inputs: &'a [String],
+    code: Vec<Instr>,
+    depth: usize,
 }
 
 impl Parser<'_> {
@@ -110,66 +131,89 @@ impl Parser<'_> {
         }
     }
 
-    fn sum(&mut self) -> Result<Expr, ExprError> {
-        let mut left = self.product()?;
+    /// Enters one level of nesting, refusing to go past [`MAX_DEPTH`].
+    fn nest(&mut self) -> Result<(), ExprError> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            return self.error(format!(
+                "the expression is nested more than {MAX_DEPTH} levels deep (parentheses, signs, `^` or calls)"
+            ));
+        }
+        Ok(())
+    }
+
+    fn sum(&mut self) -> Result<(), ExprError> {
+        self.nest()?;
+        self.product()?;
         loop {
             let op = if self.eat(b'+') {
                 Op::Add
             } else if self.eat(b'-') {
                 Op::Sub
             } else {
-                return Ok(left);
+                self.depth -= 1;
+                return Ok(());
             };
-            left = Expr::Binary(op, Box::new(left), Box::new(self.product()?));
+            self.product()?;
+            self.code.push(Instr::Binary(op));
         }
     }
 
-    fn product(&mut self) -> Result<Expr, ExprError> {
-        let mut left = self.unary()?;
+    fn product(&mut self) -> Result<(), ExprError> {
+        self.unary()?;
         loop {
             let op = if self.eat(b'*') {
                 Op::Mul
             } else if self.eat(b'/') {
                 Op::Div
             } else {
-                return Ok(left);
+                return Ok(());
             };
-            left = Expr::Binary(op, Box::new(left), Box::new(self.unary()?));
+            self.unary()?;
+            self.code.push(Instr::Binary(op));
         }
     }
 
-    fn unary(&mut self) -> Result<Expr, ExprError> {
-        if self.eat(b'-') {
-            Ok(Expr::Neg(Box::new(self.unary()?)))
-        } else if self.eat(b'+') {
-            self.unary()
-        } else {
-            self.power()
+    fn unary(&mut self) -> Result<(), ExprError> {
+        // a run of signs is read in a loop: only its parity matters
+        let mut negative = false;
+        loop {
+            if self.eat(b'-') {
+                negative = !negative;
+            } else if !self.eat(b'+') {
+                break;
+            }
         }
+        self.power()?;
+        if negative {
+            self.code.push(Instr::Neg);
+        }
+        Ok(())
     }
 
-    fn power(&mut self) -> Result<Expr, ExprError> {
-        let base = self.atom()?;
+    fn power(&mut self) -> Result<(), ExprError> {
+        self.atom()?;
         if self.eat(b'^') {
-            let exponent = self.unary()?;
-            Ok(Expr::Binary(Op::Pow, Box::new(base), Box::new(exponent)))
-        } else {
-            Ok(base)
+            self.nest()?;
+            self.unary()?;
+            self.depth -= 1;
+            self.code.push(Instr::Binary(Op::Pow));
         }
+        Ok(())
     }
 
-    fn atom(&mut self) -> Result<Expr, ExprError> {
+    fn atom(&mut self) -> Result<(), ExprError> {
         self.skip_space();
         let start = self.pos;
         let Some(&c) = self.text.get(self.pos) else {
             return self.error("unexpected end of the expression");
         };
         if self.eat(b'(') {
-            let e = self.sum()?;
+            self.sum()?;
             if !self.eat(b')') {
                 return self.error("expected `)`");
             }
-            return Ok(e);
+            return Ok(());
         }
         if c.is_ascii_digit() || c == b'.' {
             while self.pos < self.text.len() {
@@ -185,7 +229,10 @@ impl Parser<'_> {
             }
             let s = std::str::from_utf8(&self.text[start..self.pos]).expect("ASCII");
             return match s.parse::<f64>() {
-                Ok(v) => Ok(Expr::Number(v)),
+                Ok(v) => {
+                    self.code.push(Instr::Number(v));
+                    Ok(())
+                }
                 Err(_) => {
                     self.pos = start;
                     self.error(format!("bad number `{s}`"))
@@ -200,12 +247,14 @@ impl Parser<'_> {
             }
             let name = std::str::from_utf8(&self.text[start..self.pos]).expect("ASCII");
             if let Some(i) = self.inputs.iter().position(|n| n == name) {
-                return Ok(Expr::Input(i));
+                self.code.push(Instr::Input(i));
+                return Ok(());
             }
             if name == "pi" {
-                return Ok(Expr::Number(std::f64::consts::PI));
+                self.code.push(Instr::Number(std::f64::consts::PI));
+                return Ok(());
             }
-            let Some((func, arity)) = Func::parse(name) else {
+            let Some(func) = Func::parse(name) else {
                 self.pos = start;
                 return self.error(format!(
                     "unknown name `{name}` (inputs: {}; constant: pi; functions: sin cos tan asin acos atan exp ln sqrt abs min max pow atan2)",
@@ -215,21 +264,22 @@ impl Parser<'_> {
             if !self.eat(b'(') {
                 return self.error(format!("`{name}` is a function: write `{name}(...)`"));
             }
-            let mut args = vec![self.sum()?];
+            self.sum()?;
+            let mut args = 1;
             while self.eat(b',') {
-                args.push(self.sum()?);
+                self.sum()?;
+                args += 1;
             }
             if !self.eat(b')') {
                 return self.error("expected `)` or `,`");
             }
-            if args.len() != arity {
+            let arity = func.arity();
+            if args != arity {
                 self.pos = start;
-                return self.error(format!(
-                    "`{name}` takes {arity} argument(s), got {}",
-                    args.len()
-                ));
+                return self.error(format!("`{name}` takes {arity} argument(s), got {args}"));
             }
-            return Ok(Expr::Call(func, args));
+            self.code.push(Instr::Call(func));
+            return Ok(());
         }
         self.error(format!("unexpected `{}`", c as char))
     }
@@ -252,52 +302,66 @@ impl Expr {
             text: text.as_bytes(),
             pos: 0,
             inputs,
+            code: Vec::new(),
+            depth: 0,
         };
-        let e = p.sum()?;
+        p.sum()?;
         p.skip_space();
         if p.pos != p.text.len() {
             return p.error(format!("unexpected `{}`", p.text[p.pos] as char));
         }
-        Ok(e)
+        Ok(Expr { code: p.code })
     }
 
     /// The value at `x` (indexed like the `inputs` given to [`Expr::parse`]).
     pub fn eval(&self, x: &[f64]) -> f64 {
-        match self {
-            Expr::Number(v) => *v,
-            Expr::Input(i) => x[*i],
-            Expr::Neg(a) => -a.eval(x),
-            Expr::Binary(op, a, b) => {
-                let (a, b) = (a.eval(x), b.eval(x));
-                match op {
-                    Op::Add => a + b,
-                    Op::Sub => a - b,
-                    Op::Mul => a * b,
-                    Op::Div => a / b,
-                    Op::Pow => pow(a, b),
+        let mut stack: Vec<f64> = Vec::with_capacity(8);
+        for instr in &self.code {
+            match *instr {
+                Instr::Number(v) => stack.push(v),
+                Instr::Input(i) => stack.push(x[i]),
+                Instr::Neg => {
+                    let a = stack.pop().expect("a parsed program");
+                    stack.push(-a);
                 }
-            }
-            Expr::Call(f, args) => {
-                let a = args[0].eval(x);
-                let b = || args[1].eval(x);
-                match f {
-                    Func::Sin => a.sin(),
-                    Func::Cos => a.cos(),
-                    Func::Tan => a.tan(),
-                    Func::Asin => a.asin(),
-                    Func::Acos => a.acos(),
-                    Func::Atan => a.atan(),
-                    Func::Exp => a.exp(),
-                    Func::Ln => a.ln(),
-                    Func::Sqrt => a.sqrt(),
-                    Func::Abs => a.abs(),
-                    Func::Min => a.min(b()),
-                    Func::Max => a.max(b()),
-                    Func::Pow => pow(a, b()),
-                    Func::Atan2 => a.atan2(b()),
+                Instr::Binary(op) => {
+                    let b = stack.pop().expect("a parsed program");
+                    let a = stack.pop().expect("a parsed program");
+                    stack.push(match op {
+                        Op::Add => a + b,
+                        Op::Sub => a - b,
+                        Op::Mul => a * b,
+                        Op::Div => a / b,
+                        Op::Pow => pow(a, b),
+                    });
+                }
+                Instr::Call(f) => {
+                    let b = if f.arity() == 2 {
+                        stack.pop().expect("a parsed program")
+                    } else {
+                        f64::NAN
+                    };
+                    let a = stack.pop().expect("a parsed program");
+                    stack.push(match f {
+                        Func::Sin => a.sin(),
+                        Func::Cos => a.cos(),
+                        Func::Tan => a.tan(),
+                        Func::Asin => a.asin(),
+                        Func::Acos => a.acos(),
+                        Func::Atan => a.atan(),
+                        Func::Exp => a.exp(),
+                        Func::Ln => a.ln(),
+                        Func::Sqrt => a.sqrt(),
+                        Func::Abs => a.abs(),
+                        Func::Min => a.min(b),
+                        Func::Max => a.max(b),
+                        Func::Pow => pow(a, b),
+                        Func::Atan2 => a.atan2(b),
+                    });
                 }
             }
         }
+        stack.pop().expect("a parsed program leaves one value")
     }
 }
 
@@ -353,5 +417,34 @@ mod tests {
             .contains("2 argument"));
         assert!(Expr::parse("(x + 1", &names).is_err());
         assert!(Expr::parse("x 1", &names).is_err());
+    }
+
+    /// Inputs that used to overflow the stack and abort the process: deep nesting is an
+    /// error at a position, long flat sums parse, evaluate and drop without recursion.
+    #[test]
+    fn no_input_overflows_the_stack() {
+        let names = vec!["x".to_string()];
+        let deep = format!("{}x{}", "(".repeat(10_000), ")".repeat(10_000));
+        let e = Expr::parse(&deep, &names).unwrap_err();
+        assert!(e.message.contains("nested more than 256"), "{e}");
+        let chain = vec!["x"; 20_000].join("^");
+        assert!(Expr::parse(&chain, &names).is_err());
+        let calls = format!("{}x{}", "sin(".repeat(5_000), ")".repeat(5_000));
+        assert!(Expr::parse(&calls, &names).is_err());
+        // 100,000 unary minuses: an even count is x itself
+        let signs = format!("{}x", "-".repeat(100_000));
+        assert_eq!(Expr::parse(&signs, &names).unwrap().eval(&[2.5]), 2.5);
+        assert_eq!(
+            Expr::parse(&format!("-{signs}"), &names)
+                .unwrap()
+                .eval(&[2.5]),
+            -2.5
+        );
+        // a 200,000-term sum: exact in f64 as long as the partial sums stay integers
+        let sum = vec!["x"; 200_000].join(" + ");
+        assert_eq!(Expr::parse(&sum, &names).unwrap().eval(&[3.0]), 600_000.0);
+        // nesting up to the limit still parses
+        let fine = format!("{}x{}", "(".repeat(200), ")".repeat(200));
+        assert_eq!(Expr::parse(&fine, &names).unwrap().eval(&[1.5]), 1.5);
     }
 }

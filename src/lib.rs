@@ -10,6 +10,7 @@
 pub mod drawing;
 pub mod expr;
 pub mod extremes;
+pub mod input_file;
 pub mod integrator;
 pub mod math;
 pub mod mechanics;

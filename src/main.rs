@@ -43,9 +43,10 @@ enum Command {
         #[arg(long)]
         samples: Option<u64>,
         /// Output directory (overrides the study's `output`; default results/<study name>).
+        /// It must be new, empty, or a result directory of the same study.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Worker threads (default: all cores).
+        /// Worker threads, 1 to 4096 (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
         /// Run only shard I of N (`I/N`); `/N` takes I from SLURM_ARRAY_TASK_ID.
@@ -60,7 +61,7 @@ enum Command {
         /// Samples per part file: a crash loses at most the samples not yet in a part.
         #[arg(long, default_value_t = 1024)]
         part_rows: usize,
-        /// Seconds after which a part is written even if not full.
+        /// Seconds after which a part is written even if not full (`inf`: only when full).
         #[arg(long, default_value_t = 30.0)]
         part_seconds: f64,
     },
@@ -116,8 +117,8 @@ enum Command {
         /// Result directory of a study (merged or not).
         out: PathBuf,
     },
-    /// Tells which shards of OUT are complete, partial or missing, with failures, and the
-    /// `--array=` list to resubmit.
+    /// Tells which shards of OUT are complete, running (another process holds the shard),
+    /// partial or missing, with failures, and the `--array=` list to resubmit.
     Status {
         /// Result directory of a study.
         out: PathBuf,
@@ -373,14 +374,24 @@ fn converge(args: ConvergeArgs) -> Result<()> {
 
 /// A rayon pool of `threads` workers (default: all cores).
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    check_threads(threads)?;
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
-        if t == 0 {
-            bail!("--threads must be ≥ 1");
-        }
         b = b.num_threads(t);
     }
     b.build().context("starting the worker threads")
+}
+
+/// More worker threads than this is a typo, not a machine.
+const MAX_THREADS: usize = 4096;
+
+fn check_threads(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(t) if t == 0 || t > MAX_THREADS => {
+            bail!("--threads {t}: give a number from 1 to {MAX_THREADS} (default: all cores)")
+        }
+        _ => Ok(()),
+    }
 }
 
 /// `mc-study run` arguments.
@@ -397,9 +408,7 @@ struct RunArgs {
 /// Runs a study; `Ok(Some(status))` when a stop signal came (the samples done are saved).
 fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
     let study = Study::load(study, args.samples)?;
-    if args.threads == Some(0) {
-        bail!("--threads must be ≥ 1");
-    }
+    check_threads(args.threads)?;
     if args.part_rows == 0 || args.part_seconds.is_nan() || args.part_seconds <= 0.0 {
         bail!("--part-rows and --part-seconds must be positive");
     }
@@ -417,15 +426,19 @@ fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
         }
     }
     let (a, b) = opts.shard.range(study.runs());
+    let samples = if a < b {
+        format!("samples {a}–{}", b - 1)
+    } else {
+        "no samples (more shards than runs)".into()
+    };
     eprintln!(
-        "study {} ({} design, {} runs, seed {}), shard {}/{} = samples {a}–{} → {}",
+        "study {} ({} design, {} runs, seed {}), shard {}/{} = {samples} → {}",
         study.name,
         study.design.kind.name(),
         study.runs(),
         study.seed,
         opts.shard.index,
         opts.shard.count,
-        b.saturating_sub(1),
         out.display()
     );
     let r = runner::run(&study, &opts)?;
@@ -525,6 +538,12 @@ fn slurm(
 }
 
 fn main() -> std::process::ExitCode {
+    // `mc-study paths SCENE | head` ends quietly when the reader goes, as a Unix tool does,
+    // instead of panicking on the broken pipe
+    // SAFETY: restoring a signal's default disposition before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Run {

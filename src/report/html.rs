@@ -53,8 +53,9 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     let study_yaml = meta(META_STUDY);
     let scene_yaml = meta(META_SCENE);
     let version = meta(META_VERSION);
-    let ok = t.rows.iter().filter(|r| !r.failed()).count();
-    let failed = t.rows.len() - ok;
+    let suspect = t.rows.iter().filter(|r| r.suspect.is_some()).count();
+    let failed = t.rows.iter().filter(|r| r.failed()).count();
+    let ok = t.rows.len() - failed - suspect;
     let wall_ms: f64 = t.rows.iter().map(|r| r.diagnostics.wall_ms).sum();
     let mut s = String::new();
     let _ = write!(
@@ -73,7 +74,7 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         (
             "samples",
             format!(
-                "{ok} ok, {failed} failed{}",
+                "{ok} ok, {suspect} suspect, {failed} failed{}",
                 if data.missing.is_empty() {
                     String::new()
                 } else {
@@ -243,6 +244,16 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             if !data.summary.failures.is_empty() {
                 let _ = writeln!(s, "<table><tr><th>reason</th><th>samples</th></tr>");
                 for (reason, n) in &data.summary.failures {
+                    let _ = writeln!(s, "<tr><td>{}</td><td>{n}</td></tr>", esc(reason));
+                }
+                let _ = writeln!(s, "</table>");
+            }
+            if suspect > 0 {
+                let _ = writeln!(
+                    s,
+                    "<p>{suspect} samples are suspect: their runs went through with a fault, and their values are in the statistics.</p><table><tr><th>reason</th><th>samples</th></tr>"
+                );
+                for (reason, n) in &data.summary.suspicions {
                     let _ = writeln!(s, "<tr><td>{}</td><td>{n}</td></tr>", esc(reason));
                 }
                 let _ = writeln!(s, "</table>");

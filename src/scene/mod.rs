@@ -63,9 +63,28 @@ pub struct Scene {
     pub assembly: Assembly,
 }
 
+/// The `type` a scene text declares, read before the schema that depends on it.
+pub fn declared_type(text: &str, file: &str) -> Result<Option<schema::Name>, SceneError> {
+    #[derive(serde::Deserialize)]
+    struct Kind {
+        #[serde(rename = "type")]
+        kind: Option<schema::Name>,
+    }
+    let kind: Kind = serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
+    Ok(kind.kind)
+}
+
 impl Scene {
     /// Parses and validates scene YAML text; `file` names the source in error messages.
     pub fn from_yaml(text: &str, file: &str) -> Result<Scene, SceneError> {
+        if let Some(k) = declared_type(text, file)?.filter(|k| k.value == "function") {
+            return Err(SceneError::at(
+                error::line(&k),
+                "type",
+                "a `type: function` scene has no mechanism to simulate: a study evaluates it (`mc-study run`)",
+            )
+            .in_file(file));
+        }
         let spec: SceneSpec =
             serde_saphyr::from_str(text).map_err(|e| SceneError::from_yaml(file, &e))?;
         build::build(spec, file, Vec::new())
@@ -147,7 +166,7 @@ impl Scene {
     }
 
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        let text = crate::input_file::read(path).map_err(|e| SceneError {
             file: Some(path.display().to_string()),
             line: None,
             field: String::new(),

@@ -48,6 +48,22 @@ fn phi(x: f64) -> f64 {
 }
 
 impl Distribution {
+    /// The extreme values a sample can take, where the support is bounded: just inside
+    /// each finite end of a continuous distribution (an end itself has probability zero),
+    /// or the fixed value.
+    pub fn extreme_values(&self) -> Vec<f64> {
+        let ends = match *self {
+            Distribution::Normal { .. } | Distribution::Lognormal { .. } => vec![],
+            Distribution::TruncatedNormal { lower, upper, .. }
+            | Distribution::Uniform { lower, upper }
+            | Distribution::Triangular { lower, upper, .. } => {
+                vec![lower.next_up(), upper.next_down()]
+            }
+            Distribution::Fixed(v) => vec![v],
+        };
+        ends.into_iter().filter(|v| v.is_finite()).collect()
+    }
+
     /// Lognormal with the given mean and standard deviation of X (mean > 0).
     pub fn lognormal(mean: f64, sd: f64) -> Result<Distribution, String> {
         if mean <= 0.0 {

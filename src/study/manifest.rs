@@ -6,6 +6,7 @@
 use super::store::Columns;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
@@ -108,6 +109,10 @@ pub struct Manifest {
     /// Shard count of the latest run (for `status`).
     pub shards: u64,
     pub completed: Ranges,
+    /// The SHA-256 of each part file (by name), recorded when it was written and checked
+    /// on every read.
+    #[serde(default)]
+    pub parts: BTreeMap<String, String>,
 }
 
 pub fn path(out: &Path) -> PathBuf {
@@ -129,9 +134,12 @@ impl Manifest {
         let tmp = out.join(format!(".manifest.json.{}.tmp", std::process::id()));
         let mut text = serde_json::to_string_pretty(self)?;
         text.push('\n');
-        std::fs::write(&tmp, text)?;
-        File::open(&tmp)?.sync_all()?;
-        std::fs::rename(&tmp, &p)?;
+        let written = std::fs::write(&tmp, text).and_then(|()| File::open(&tmp)?.sync_all());
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e).with_context(|| format!("writing {}", p.display()));
+        }
+        std::fs::rename(&tmp, &p).with_context(|| format!("writing {}", p.display()))?;
         Ok(())
     }
 
@@ -164,10 +172,39 @@ pub fn lock_file(p: &Path) -> Result<File> {
 pub struct DirLock(File);
 
 impl DirLock {
+    /// Waits for the lock, saying so when another process holds it.
     pub fn acquire(out: &Path) -> Result<DirLock> {
-        let f = lock_file(&out.join(".lock"))?;
-        f.lock().context("locking the output directory")?;
+        let p = out.join(".lock");
+        let f = lock_file(&p)?;
+        match f.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                eprintln!(
+                    "waiting for {}: another mc-study process (a run, merge or status of this directory) holds it",
+                    p.display()
+                );
+                f.lock().context("locking the output directory")?;
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(e).context("locking the output directory")
+            }
+        }
         Ok(DirLock(f))
+    }
+}
+
+/// Whether another process holds the lock of `p` (a shard's lock file) now.
+pub fn held_elsewhere(p: &Path) -> bool {
+    let Ok(f) = File::open(p) else {
+        return false;
+    };
+    match f.try_lock() {
+        Ok(()) => {
+            let _ = f.unlock();
+            false
+        }
+        Err(std::fs::TryLockError::WouldBlock) => true,
+        Err(std::fs::TryLockError::Error(_)) => false,
     }
 }
 

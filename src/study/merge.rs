@@ -1,8 +1,8 @@
 //! `mc-study merge` (all parts → `OUT/results.parquet` sorted by sample id, then the
 //! summary) and `mc-study status` (done / missing / failed per shard).
 
-use super::manifest::{Manifest, Ranges};
-use super::runner::{part_files, read_part, Shard};
+use super::manifest::{held_elsewhere, DirLock, Manifest, Ranges};
+use super::runner::{part_files, parts_dir, read_part, Shard};
 use super::store::{self, Row, Table};
 use super::summary::Summary;
 use super::Study;
@@ -10,21 +10,35 @@ use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// Every row of every part, one per sample id (parts of a resumed or re-split run may
-/// repeat a sample; its rows are identical but for the wall time, and the first is kept).
+/// Every row of every part, one per sample id. A sample stored twice (by a shard rerun
+/// from a copy, say) is kept once if its rows agree but for the wall time, and refused if
+/// they disagree.
 pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
     let manifest = Manifest::load(out)?;
-    let mut rows: Vec<Row> = Vec::new();
+    let mut rows: Vec<(Row, usize)> = Vec::new();
     let mut metadata = HashMap::new();
-    for p in part_files(out)? {
-        let t = read_part(&p, &manifest.study_hash)?;
+    let files = part_files(out)?;
+    for (k, p) in files.iter().enumerate() {
+        let t = read_part(p, &manifest)?;
         if t.columns != manifest.columns {
             bail!("{} has other columns than manifest.json", p.display());
         }
         metadata = t.metadata;
-        rows.extend(t.rows);
+        rows.extend(t.rows.into_iter().map(|r| (r, k)));
     }
-    rows.sort_by_key(|r| r.id);
+    rows.sort_by_key(|(r, _)| r.id);
+    for w in rows.windows(2) {
+        let ((a, i), (b, j)) = (&w[0], &w[1]);
+        if a.id == b.id && !same_sample(a, b) {
+            bail!(
+                "sample {} is stored twice with different values, in {} and {}: delete the part that should not be there and rerun the same `mc-study run` command",
+                a.id,
+                files[*i].display(),
+                files[*j].display()
+            );
+        }
+    }
+    let mut rows: Vec<Row> = rows.into_iter().map(|(r, _)| r).collect();
     rows.dedup_by_key(|r| r.id);
     let columns = manifest.columns.clone();
     Ok((
@@ -33,8 +47,23 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
             columns,
             rows,
             metadata,
+            digest: String::new(),
         },
     ))
+}
+
+/// Two rows of one sample agree: every value bit for bit but the wall time.
+fn same_sample(a: &Row, b: &Row) -> bool {
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (da, db) = (&a.diagnostics, &b.diagnostics);
+    bits(&a.inputs) == bits(&b.inputs)
+        && bits(&a.outputs) == bits(&b.outputs)
+        && da.steps == db.steps
+        && da.max_penetration.to_bits() == db.max_penetration.to_bits()
+        && da.max_solver_residual.to_bits() == db.max_solver_residual.to_bits()
+        && da.nonconverged_steps == db.nonconverged_steps
+        && a.error == b.error
+        && a.suspect == b.suspect
 }
 
 /// The study of a result directory, from the study and scene texts stored in its parts,
@@ -60,6 +89,14 @@ pub fn stored_study(manifest: &Manifest, table: &Table) -> Result<Study> {
         );
     }
     Ok(study)
+}
+
+/// The row count of an existing results file, from its footer.
+fn rows_in(path: &Path) -> Option<u64> {
+    let file = std::fs::File::open(path).ok()?;
+    let reader = parquet::file::reader::SerializedFileReader::new(file).ok()?;
+    use parquet::file::reader::FileReader;
+    u64::try_from(reader.metadata().file_metadata().num_rows()).ok()
 }
 
 pub struct Merged {
@@ -90,13 +127,26 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
     table
         .metadata
         .insert("mc_study.complete".into(), missing.is_empty().to_string());
-    let path = out.join("results.parquet");
-    store::write(&path, &table.columns, &table.rows, &table.metadata)?;
     let study = stored_study(&manifest, &table)?;
     let summary = Summary::of(&manifest.study_name, &table, &study.outputs);
+    let path = out.join("results.parquet");
+    let _dir = DirLock::acquire(out)?;
+    // a slow merge of fewer parts must not replace the result of a later, fuller one
+    if let Some(rows) = rows_in(&path) {
+        if rows > table.rows.len() as u64 {
+            bail!(
+                "{} already holds {rows} samples, more than the {} this merge found; it was left as it is",
+                path.display(),
+                table.rows.len()
+            );
+        }
+    }
+    store::write(&path, &table.columns, &table.rows, &table.metadata)?;
+    let json = out.join("summary.json");
     let tmp = out.join(format!(".summary.json.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, summary.to_json())?;
-    std::fs::rename(&tmp, out.join("summary.json"))?;
+    std::fs::write(&tmp, summary.to_json())
+        .and_then(|()| std::fs::rename(&tmp, &json))
+        .with_context(|| format!("writing {}", json.display()))?;
     Ok(Merged {
         path,
         rows: table.rows.len() as u64,
@@ -108,6 +158,8 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
 /// Per shard of an `n`-way split: (shard, samples, done, failed, missing ranges).
 pub struct ShardStatus {
     pub shard: Shard,
+    /// A process holds the shard's lock: it is being run now.
+    pub running: bool,
     pub samples: u64,
     pub done: u64,
     pub failed: u64,
@@ -140,12 +192,14 @@ impl std::fmt::Display for StatusReport {
         for s in &self.shards {
             let state = if s.done == s.samples {
                 "complete"
+            } else if s.running {
+                "running"
             } else if s.done == 0 {
                 "missing"
             } else {
                 "partial"
             };
-            if s.done < s.samples {
+            if s.done < s.samples && !s.running {
                 resubmit.push(s.shard.index.to_string());
             }
             writeln!(
@@ -183,6 +237,9 @@ pub fn status(out: &Path, shards: Option<u64>) -> Result<StatusReport> {
             let missing = done.missing_in(a, b);
             ShardStatus {
                 shard,
+                running: held_elsewhere(
+                    &parts_dir(out).join(format!(".shard-{}.lock", shard.label())),
+                ),
                 samples: b - a,
                 done: (b - a) - missing.count(),
                 failed: table

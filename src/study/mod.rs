@@ -101,6 +101,8 @@ pub struct Study {
     pub parameters: Vec<Parameter>,
     pub outputs: Vec<Output>,
     pub output_dir: PathBuf,
+    /// Suspect samples count as failures (`suspect: fail`) rather than as flagged values.
+    pub suspect_fails: bool,
 }
 
 /// The scene parameter paths (`integrator.h`, …) that a `fidelity` block sets.
@@ -219,7 +221,7 @@ impl Study {
     /// Reads and validates a study file; `samples` overrides its `samples`.
     pub fn load(path: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        let text = crate::input_file::read(path).map_err(|e| SceneError {
             file: Some(file.clone()),
             line: None,
             field: String::new(),
@@ -276,7 +278,7 @@ impl Study {
         let scene_path = base.join(&spec.scene.value);
         let scene_text = match scene_text {
             Some(t) => t.to_string(),
-            None => std::fs::read_to_string(&scene_path).map_err(|e| {
+            None => crate::input_file::read(&scene_path).map_err(|e| {
                 at(
                     line(&spec.scene),
                     "scene",
@@ -331,6 +333,18 @@ impl Study {
                 .map_err(|m| at(line(&p.path), format!("{field}.path"), m))?;
             let distribution =
                 distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
+            if let Subject::Mechanism(scene) = &subject {
+                // every value the distribution can give must be one the scene accepts
+                for v in distribution.extreme_values() {
+                    if let Err(e) = scene.with_parameters(&[(&p.path.value, v)]) {
+                        return Err(at(
+                            line(&p.distribution),
+                            format!("{field}.distribution"),
+                            format!("its support reaches {v}{}, which the scene refuses ({e}); narrow or truncate it to values the scene accepts", dim.filter(|d| *d != Dim::NONE).map(|d| format!(" {}", d.si_unit())).unwrap_or_default()),
+                        ));
+                    }
+                }
+            }
             parameters.push(Parameter {
                 path: p.path.value.clone(),
                 distribution,
@@ -477,6 +491,18 @@ impl Study {
             }
             Some(o) => base.join(&o.value),
         };
+        let suspect_fails = match &spec.suspect {
+            None => false,
+            Some(s) if s.value == "keep" => false,
+            Some(s) if s.value == "fail" => true,
+            Some(s) => {
+                return Err(at(
+                    line(s),
+                    "suspect",
+                    format!("`{}`: expected keep or fail", s.value),
+                ))
+            }
+        };
         Ok(Study {
             name,
             description: spec.description.clone().unwrap_or_default(),
@@ -489,6 +515,7 @@ impl Study {
             parameters,
             outputs,
             output_dir,
+            suspect_fails,
         })
     }
 

@@ -140,23 +140,56 @@ pub fn part_files(out: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
-/// Reads a part file, refusing one written for another study (`hash`).
-pub fn read_part(p: &Path, hash: &str) -> Result<store::Table> {
-    let t = store::read(p)?;
-    if t.metadata.get(store::META_HASH).map(String::as_str) != Some(hash) {
+/// The advice for a part that fails its checks.
+fn damaged(p: &Path, why: &str) -> String {
+    format!(
+        "{} {why}. Delete it and rerun the same `mc-study run` command: the samples it held are computed again",
+        p.display()
+    )
+}
+
+/// Reads a part file, refusing one written for another study, one whose bytes differ from
+/// the digest recorded when it was written, and one with sample ids outside the study.
+pub fn read_part(p: &Path, manifest: &Manifest) -> Result<store::Table> {
+    let t = store::read(p)
+        .map_err(|e| anyhow::anyhow!(damaged(p, &format!("cannot be read ({e:#})"))))?;
+    if let Some(recorded) = manifest.parts.get(&file_name(p)) {
+        if *recorded != t.digest {
+            bail!(damaged(
+                p,
+                "is corrupted: its SHA-256 differs from the one recorded in manifest.json when it was written"
+            ));
+        }
+    }
+    if t.metadata.get(store::META_HASH) != Some(&manifest.study_hash) {
         bail!(
             "{} belongs to another study (its hash differs); nothing was overwritten",
             p.display()
         );
     }
+    if let Some(r) = t.rows.iter().find(|r| r.id >= manifest.runs) {
+        bail!(damaged(
+            p,
+            &format!(
+                "holds sample {}, but the study has samples 0–{} only",
+                r.id,
+                manifest.runs.saturating_sub(1)
+            )
+        ));
+    }
     Ok(t)
 }
 
-/// The sample ids found in the part files.
-fn completed(out: &Path, hash: &str) -> Result<Ranges> {
+/// The sample ids found in the part files, recording the digest of any part written by a
+/// run that died before it could record it, and forgetting parts that were deleted.
+fn completed(out: &Path, manifest: &mut Manifest) -> Result<Ranges> {
     let mut all = Ranges::default();
-    for p in part_files(out)? {
-        let t = read_part(&p, hash)?;
+    let files = part_files(out)?;
+    let names: Vec<String> = files.iter().map(|p| file_name(p)).collect();
+    manifest.parts.retain(|name, _| names.contains(name));
+    for (p, name) in files.iter().zip(names) {
+        let t = read_part(p, manifest)?;
+        manifest.parts.entry(name).or_insert(t.digest);
         all = all.union(&Ranges::from_ids(t.rows.iter().map(|r| r.id).collect()));
     }
     Ok(all)
@@ -203,18 +236,26 @@ impl Study {
             columns: self.columns(),
             shards,
             completed,
+            parts: Default::default(),
         }
     }
 
-    /// The row of sample i.
+    /// The row of sample i; with `suspect: fail`, a suspect sample is a failed one.
     pub fn row(&self, i: u64) -> Row {
-        let (inputs, o) = self.run_sample(i);
+        let (inputs, mut o) = self.run_sample(i);
+        if self.suspect_fails {
+            if let Some(why) = o.suspect.take() {
+                o.error = Some(format!("suspect: {why}"));
+                o.outputs.iter_mut().for_each(|v| *v = f64::NAN);
+            }
+        }
         Row {
             id: i,
             inputs,
             outputs: o.outputs,
             diagnostics: o.diagnostics,
             error: o.error,
+            suspect: o.suspect,
         }
     }
 }
@@ -237,32 +278,131 @@ fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
     }
 }
 
-/// Creates or reopens OUT for `study`: refuses another study's directory, cleans this
-/// shard's temporary files, and returns the completed ranges found in the parts.
+/// What a directory that is not (yet) a result directory may hold: what a run that died
+/// before writing its first manifest leaves behind, and the scripts of `mc-study slurm`.
+fn is_skeleton(out: &Path) -> Result<bool> {
+    for e in std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))? {
+        let p = e?.path();
+        let name = file_name(&p);
+        let ours = name == ".lock"
+            // `mc-study slurm` writes its scripts before the tasks run
+            || name == "slurm"
+            || (name.starts_with(".manifest.json.") && name.ends_with(".tmp"))
+            || (name == "parts"
+                && std::fs::read_dir(&p)?
+                    .all(|e| e.is_ok_and(|e| e.file_name().to_string_lossy().starts_with('.'))));
+        if !ours {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// Refuses an OUT that exists and is neither empty nor a result directory: a run writes
+/// only into a new or empty directory, or into one of its own study's result directories.
+pub fn check_out(out: &Path) -> Result<()> {
+    if out.as_os_str().is_empty() {
+        bail!("the output directory is empty text: give --out DIR or the study's `output`");
+    }
+    if !out.exists() || super::manifest::path(out).exists() {
+        return Ok(());
+    }
+    if !out.is_dir() {
+        bail!("{} exists and is not a directory", out.display());
+    }
+    if !is_skeleton(out)? {
+        bail!(
+            "{} is not empty and holds no results of mc-study (no manifest.json); nothing was written. Choose a new or empty directory, or the directory of an earlier run of this study.",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Removes the temporary files of writers that died: those of OUT itself (written only
+/// under the directory lock, which the caller holds) and those of shards no process runs.
+fn remove_orphans(out: &Path) -> Result<()> {
+    let tmp = |name: &str| name.starts_with('.') && name.ends_with(".tmp");
+    for e in std::fs::read_dir(out)? {
+        let p = e?.path();
+        if tmp(&file_name(&p)) && p.is_file() {
+            std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+        }
+    }
+    for e in std::fs::read_dir(parts_dir(out))? {
+        let p = e?.path();
+        let name = file_name(&p);
+        // `.part-3of8-000012.parquet.<pid>.tmp` belongs to shard 3of8
+        let Some(label) = name
+            .strip_prefix(".part-")
+            .and_then(|r| r.split('-').next())
+        else {
+            continue;
+        };
+        let lock = parts_dir(out).join(format!(".shard-{label}.lock"));
+        if tmp(&name) && !super::manifest::held_elsewhere(&lock) {
+            std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Refuses to run while another split of the same study runs in OUT: shards of different
+/// splits overlap, and both would compute the same samples.
+fn check_split(out: &Path, shard: Shard) -> Result<()> {
+    for e in std::fs::read_dir(parts_dir(out))? {
+        let p = e?.path();
+        let name = file_name(&p);
+        let Some(label) = name
+            .strip_prefix(".shard-")
+            .and_then(|r| r.strip_suffix(".lock"))
+        else {
+            continue;
+        };
+        let Some((i, n)) = label.split_once("of") else {
+            continue;
+        };
+        if n != shard.count.to_string() && super::manifest::held_elsewhere(&p) {
+            bail!(
+                "shard {i}/{n} of {} is being run by another process; a run split {}-ways would compute some of its samples again. Wait for it to end, or stop it, then rerun.",
+                out.display(),
+                shard.count
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Creates or reopens OUT for `study`: refuses another study's directory, an unrelated
+/// one, and a run of another split under way; cleans orphan temporary files; returns the
+/// completed ranges found in the parts.
 fn prepare(study: &Study, out: &Path, shard: Shard) -> Result<(Ranges, File)> {
+    check_out(out)?;
     std::fs::create_dir_all(parts_dir(out))
         .with_context(|| format!("creating {}", out.display()))?;
     let _dir = DirLock::acquire(out)?;
     let hash = study.hash();
-    if super::manifest::path(out).exists() {
-        Manifest::load(out)?.check_same_study(&hash, out)?;
+    let mut manifest = if super::manifest::path(out).exists() {
+        let m = Manifest::load(out)?;
+        m.check_same_study(&hash, out)?;
+        m
     } else if !part_files(out)?.is_empty() {
         bail!(
             "{} holds part files but no manifest.json; refusing to mix results",
             out.display()
         );
-    }
+    } else {
+        study.manifest(shard.count, Ranges::default())
+    };
+    check_split(out, shard)?;
     let shard_lock = lock_shard(out, shard)?;
-    for e in std::fs::read_dir(parts_dir(out))? {
-        let p = e?.path();
-        let name = file_name(&p);
-        if name.starts_with(&format!(".part-{}-", shard.label())) && name.ends_with(".tmp") {
-            std::fs::remove_file(&p)?;
-        }
-    }
-    let done = completed(out, &hash)?;
-    study.manifest(shard.count, done.clone()).save(out)?;
-    std::fs::write(out.join("study.yaml"), &study.text)?;
+    remove_orphans(out)?;
+    let done = completed(out, &mut manifest)?;
+    manifest.shards = shard.count;
+    manifest.completed = done.clone();
+    manifest.save(out)?;
+    let text = out.join("study.yaml");
+    std::fs::write(&text, &study.text).with_context(|| format!("writing {}", text.display()))?;
     Ok((done, shard_lock))
 }
 
@@ -286,7 +426,7 @@ impl Writer<'_> {
         }
         let name = format!("part-{}-{:06}.parquet", self.shard.label(), self.next_seq);
         let path = parts_dir(self.out).join(&name);
-        store::write(&path, &self.columns, &self.rows, &self.metadata)?;
+        let digest = store::write(&path, &self.columns, &self.rows, &self.metadata)?;
         self.next_seq += 1;
         self.report.parts += 1;
         let ids = Ranges::from_ids(self.rows.iter().map(|r| r.id).collect());
@@ -295,6 +435,7 @@ impl Writer<'_> {
         let mut m = Manifest::load(self.out)
             .unwrap_or_else(|_| self.study.manifest(self.shard.count, Ranges::default()));
         m.completed = m.completed.union(&ids);
+        m.parts.insert(name, digest);
         m.save(self.out)?;
         Ok(true)
     }
@@ -369,7 +510,8 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
         let bar_w = bar.clone();
         let handle = scope.spawn(move || -> Result<RunReport> {
             let mut oldest: Option<Instant> = None;
-            let budget = Duration::from_secs_f64(opts.seconds_per_part);
+            // `inf` means never: a part is written when full or at the end
+            let budget = Duration::try_from_secs_f64(opts.seconds_per_part).unwrap_or(Duration::MAX);
             let mut step = || -> Result<bool> {
                 let wait = oldest.map_or(budget, |t| budget.saturating_sub(t.elapsed()));
                 let open = match rx.recv_timeout(wait.max(Duration::from_millis(1))) {

@@ -29,6 +29,9 @@ pub struct StudySpec {
     pub fidelity: Option<IntegratorSpec>,
     /// Output directory, relative to the working directory (default `results/<name>`).
     pub output: Option<Name>,
+    /// What a suspect sample counts as: `keep` (default: its values count, flagged) or
+    /// `fail` (a failure: its values are left out).
+    pub suspect: Option<Name>,
 }
 
 #[derive(Debug, Deserialize)]

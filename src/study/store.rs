@@ -11,6 +11,7 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
 use parquet::file::properties::WriterProperties;
+use sha2::{Digest, Sha256};
 use std::collections::HashMap;
 use std::fs::File;
 use std::path::Path;
@@ -25,11 +26,22 @@ pub struct Row {
     pub outputs: Vec<f64>,
     pub diagnostics: Diagnostics,
     pub error: Option<String>,
+    /// Why the values of a run that went through are suspect (see `Outcome`).
+    pub suspect: Option<String>,
 }
 
 impl Row {
     pub fn failed(&self) -> bool {
         self.error.is_some()
+    }
+
+    /// `ok`, `suspect` or `failed`: the `status` column.
+    pub fn status(&self) -> &'static str {
+        match (&self.error, &self.suspect) {
+            (Some(_), _) => "failed",
+            (None, Some(_)) => "suspect",
+            (None, None) => "ok",
+        }
     }
 }
 
@@ -152,45 +164,95 @@ impl Columns {
         cols.push(u64s(&|r| r.diagnostics.nonconverged_steps));
         cols.push(f64s(&|r| r.diagnostics.wall_ms));
         cols.push(Arc::new(StringArray::from_iter_values(
-            rows.iter()
-                .map(|r| if r.failed() { "failed" } else { "ok" }),
+            rows.iter().map(Row::status),
         )));
+        // the failure, or why a run that went through is suspect
         cols.push(Arc::new(
             rows.iter()
-                .map(|r| r.error.as_deref())
+                .map(|r| r.error.as_deref().or(r.suspect.as_deref()))
                 .collect::<StringArray>(),
         ));
         Ok(RecordBatch::try_new(schema, cols)?)
     }
 }
 
-/// Writes `rows` to `path` atomically (temporary name, fsync, rename, fsync of the directory).
+/// A file that hashes what is written through it.
+struct HashingFile {
+    file: File,
+    hasher: Sha256,
+}
+
+impl std::io::Write for HashingFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.file.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+/// The SHA-256 of a file's bytes, in hex: what a part's integrity is checked against.
+pub fn digest(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Writes `rows` to `path` atomically (temporary name, fsync, rename, fsync of the
+/// directory); returns the SHA-256 of the file written.
 pub fn write(
     path: &Path,
     columns: &Columns,
     rows: &[Row],
     metadata: &HashMap<String, String>,
-) -> Result<()> {
+) -> Result<String> {
     let dir = path.parent().context("a file path has a directory")?;
     let name = path.file_name().context("a file name")?.to_string_lossy();
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let written = write_file(&tmp, columns, rows, metadata);
+    let digest = match written {
+        Ok(d) => d,
+        Err(e) => {
+            // a full disk leaves no half-written temporary behind
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e.context(format!("writing {}", path.display())));
+        }
+    };
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .with_context(|| format!("syncing {}", dir.display()))?;
+    Ok(digest)
+}
+
+fn write_file(
+    tmp: &Path,
+    columns: &Columns,
+    rows: &[Row],
+    metadata: &HashMap<String, String>,
+) -> Result<String> {
     let schema = Arc::new(columns.schema(metadata.clone()));
     let props = WriterProperties::builder()
         .set_compression(Compression::ZSTD(ZstdLevel::try_new(3)?))
         .build();
-    let file = File::create(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    let file = HashingFile {
+        file: File::create(tmp).with_context(|| format!("creating {}", tmp.display()))?,
+        hasher: Sha256::new(),
+    };
     let mut writer = ArrowWriter::try_new(file, schema.clone(), Some(props))?;
     // row groups of at most 64 Ki rows keep readers' memory bounded
     for chunk in rows.chunks(65_536) {
         writer.write(&columns.batch(chunk, schema.clone())?)?;
     }
     let file = writer.into_inner()?;
-    file.sync_all()?;
-    drop(file);
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
-    File::open(dir)?.sync_all()?;
-    Ok(())
+    file.file.sync_all()?;
+    Ok(hex(&file.hasher.finalize()))
 }
 
 /// What a study file holds.
@@ -198,6 +260,8 @@ pub struct Table {
     pub columns: Columns,
     pub rows: Vec<Row>,
     pub metadata: HashMap<String, String>,
+    /// The SHA-256 of the file read (empty for a table built in memory).
+    pub digest: String,
 }
 
 fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
@@ -209,8 +273,9 @@ fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
 
 /// Reads a study file written by [`write`].
 pub fn read(path: &Path) -> Result<Table> {
-    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(file)
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let digest = digest(&bytes);
+    let builder = ParquetRecordBatchReaderBuilder::try_new(bytes::Bytes::from(bytes))
         .with_context(|| format!("reading {}", path.display()))?;
     let schema = builder.schema().clone();
     let metadata: HashMap<String, String> = schema
@@ -254,16 +319,16 @@ pub fn read(path: &Path) -> Result<Table> {
         let status = column::<StringArray>(&batch, "status")?;
         let error = column::<StringArray>(&batch, "error")?;
         for i in 0..batch.num_rows() {
-            let failed = status.value(i) == "failed";
-            let err = (!error.is_null(i)).then(|| error.value(i).to_string());
-            if failed != err.is_some() {
-                bail!(
-                    "{}: row {i} has status `{}` but error {:?}",
-                    path.display(),
-                    status.value(i),
-                    err
-                );
-            }
+            let text = (!error.is_null(i)).then(|| error.value(i).to_string());
+            let (err, suspect) = match (status.value(i), text) {
+                ("ok", None) => (None, None),
+                ("failed", Some(t)) => (Some(t), None),
+                ("suspect", Some(t)) => (None, Some(t)),
+                (s, t) => bail!(
+                    "{}: row {i} has status `{s}` and error {t:?}",
+                    path.display()
+                ),
+            };
             rows.push(Row {
                 id: ids.value(i),
                 inputs: inputs.iter().map(|c| c.value(i)).collect(),
@@ -279,6 +344,7 @@ pub fn read(path: &Path) -> Result<Table> {
                     wall_ms: wall.value(i),
                 },
                 error: err,
+                suspect,
             });
         }
     }
@@ -286,5 +352,6 @@ pub fn read(path: &Path) -> Result<Table> {
         columns,
         rows,
         metadata,
+        digest,
     })
 }

@@ -4,8 +4,7 @@
 use super::Output;
 use crate::probe_run::run_probes;
 use crate::scene::units::Dim;
-use crate::scene::{FunctionScene, Scene, SceneError};
-use serde::Deserialize;
+use crate::scene::{declared_type, FunctionScene, Scene, SceneError};
 use std::time::Instant;
 
 #[derive(Clone, Debug)]
@@ -26,26 +25,64 @@ pub struct Diagnostics {
     pub wall_ms: f64,
 }
 
-/// The result of one sample: every output (NaN when failed), diagnostics, and the error
-/// that failed it.
+/// The result of one sample: every output (NaN when failed), diagnostics, the error that
+/// failed it, and why its values are suspect if the run went through with a fault.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Outcome {
     pub outputs: Vec<f64>,
     pub diagnostics: Diagnostics,
     pub error: Option<String>,
+    pub suspect: Option<String>,
 }
 
-#[derive(Deserialize)]
-struct Kind {
-    #[serde(rename = "type")]
-    kind: Option<String>,
+/// A projecting scheme holds contacts and joints to its projection tolerance; a run that
+/// ends up farther off than this many tolerances did not do what the scheme promises.
+const TOLERANCES_ALLOWED: f64 = 10.0;
+
+/// Why a run that finished is not to be trusted as it stands, if it is not: steps that did
+/// not converge, or (for a projecting scheme) penetration or joint violation beyond its
+/// tolerance, which includes bodies that overlapped at the start.
+fn suspicion(
+    st: &crate::integrator::RunStats,
+    params: &crate::integrator::IntegrationParameters,
+    initial_overlap: f64,
+) -> Option<String> {
+    let mut why = Vec::new();
+    let nonconverged = st.solver_failures + st.newton_failures + st.projection_failures;
+    if nonconverged > 0 {
+        why.push(format!(
+            "steps did not converge ({nonconverged} of {})",
+            st.steps
+        ));
+    }
+    let allowed = TOLERANCES_ALLOWED * params.projection_tolerance;
+    if initial_overlap > allowed {
+        why.push(format!(
+            "bodies overlapped at the start (by {initial_overlap:.3e} m)"
+        ));
+    }
+    if params.scheme != crate::integrator::Scheme::MoreauJean {
+        if st.max_penetration > allowed {
+            why.push(format!(
+                "penetration beyond the scheme's tolerance ({:.3e} m > {allowed:.0e} m)",
+                st.max_penetration
+            ));
+        }
+        if st.max_joint_violation > allowed {
+            why.push(format!(
+                "joint violation beyond the scheme's tolerance ({:.3e} m > {allowed:.0e} m)",
+                st.max_joint_violation
+            ));
+        }
+    }
+    (!why.is_empty()).then(|| why.join("; "))
 }
 
 impl Subject {
     /// Parses a scene text of either type (`type: function` selects the analytic kind).
     pub fn from_yaml(text: &str, file: &str) -> Result<Subject, SceneError> {
-        let kind: Option<Kind> = serde_saphyr::from_str(text).ok();
-        if kind.and_then(|k| k.kind).as_deref() == Some("function") {
+        let kind = declared_type(text, file)?;
+        if kind.is_some_and(|k| k.value == "function") {
             Ok(Subject::Function(FunctionScene::from_yaml(text, file)?))
         } else {
             Ok(Subject::Mechanism(Box::new(Scene::from_yaml(text, file)?)))
@@ -97,7 +134,7 @@ impl Subject {
         let start = Instant::now();
         let result =
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.run_inner(parameters)));
-        let (values, mut diagnostics, error) = match result {
+        let (values, mut diagnostics, error, suspect) = match result {
             Ok(r) => r,
             Err(panic) => {
                 let msg = panic
@@ -109,6 +146,7 @@ impl Subject {
                     Vec::new(),
                     Diagnostics::default(),
                     Some(format!("internal error (panic): {msg}")),
+                    None,
                 )
             }
         };
@@ -120,17 +158,22 @@ impl Subject {
         Outcome {
             outputs,
             diagnostics,
+            suspect: if error.is_none() { suspect } else { None },
             error,
         }
     }
 
-    fn run_inner(&self, parameters: &[(&str, f64)]) -> (Vec<f64>, Diagnostics, Option<String>) {
+    #[allow(clippy::type_complexity)]
+    fn run_inner(
+        &self,
+        parameters: &[(&str, f64)],
+    ) -> (Vec<f64>, Diagnostics, Option<String>, Option<String>) {
         match self {
             Subject::Function(f) => {
                 let mut f = f.clone();
                 for &(path, v) in parameters {
                     if let Err(e) = f.set_parameter(path, v) {
-                        return (Vec::new(), Diagnostics::default(), Some(e));
+                        return (Vec::new(), Diagnostics::default(), Some(e), None);
                     }
                 }
                 let values = f.evaluate();
@@ -139,17 +182,25 @@ impl Subject {
                     .zip(&f.outputs)
                     .find(|(v, _)| !v.is_finite())
                     .map(|(v, o)| format!("output `{}` is {v}", o.name));
-                (values, Diagnostics::default(), error)
+                (values, Diagnostics::default(), error, None)
             }
             Subject::Mechanism(scene) => {
                 let scene = match scene.with_parameters(parameters) {
                     Ok(s) => s,
-                    Err(e) => return (Vec::new(), Diagnostics::default(), Some(e)),
+                    Err(e) => return (Vec::new(), Diagnostics::default(), Some(e), None),
                 };
                 let sim = match scene.simulation() {
                     Ok(s) => s,
-                    Err(e) => return (Vec::new(), Diagnostics::default(), Some(e.to_string())),
+                    Err(e) => {
+                        return (
+                            Vec::new(),
+                            Diagnostics::default(),
+                            Some(e.to_string()),
+                            None,
+                        )
+                    }
                 };
+                let initial_overlap = sim.stats.max_penetration;
                 let run = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
                 let st = run.stats;
                 let diagnostics = Diagnostics {
@@ -161,12 +212,21 @@ impl Subject {
                         + st.projection_failures,
                     wall_ms: 0.0,
                 };
-                if let Some(e) = run.error {
-                    return (Vec::new(), diagnostics, Some(e));
-                }
-                match run.values.into_iter().collect() {
-                    Ok(values) => (values, diagnostics, None),
-                    Err(e) => (Vec::new(), diagnostics, Some(e)),
+                let suspect = suspicion(&st, &scene.params, initial_overlap);
+                let values: Result<Vec<f64>, String> = match run.error {
+                    Some(e) => Err(e),
+                    None => run.values.into_iter().collect(),
+                };
+                match (values, suspect) {
+                    (Ok(values), suspect) => (values, diagnostics, None, suspect),
+                    // the fault explains a failure better than its symptom does
+                    (Err(e), Some(why)) => (
+                        Vec::new(),
+                        diagnostics,
+                        Some(format!("{e}; the run was suspect: {why}")),
+                        None,
+                    ),
+                    (Err(e), None) => (Vec::new(), diagnostics, Some(e), None),
                 }
             }
         }

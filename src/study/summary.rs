@@ -158,6 +158,45 @@ pub struct Summary {
     pub correlations: Vec<Correlation>,
     /// Failure reasons (first line) with their counts, most frequent first.
     pub failures: Vec<(String, u64)>,
+    /// Samples whose run went through with a fault (their values are in the statistics).
+    #[serde(default)]
+    pub suspect: u64,
+    /// Their reasons with counts, most frequent first.
+    #[serde(default)]
+    pub suspicions: Vec<(String, u64)>,
+}
+
+/// `text` without its ` (…)` parts: the kind of a reason, without its figures.
+fn without_details(text: &str) -> String {
+    let mut out = String::new();
+    let mut depth = 0usize;
+    for c in text.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' if depth > 0 => depth -= 1,
+            _ if depth == 0 => out.push(c),
+            _ => {}
+        }
+    }
+    out.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// Reasons (first lines, without their parenthesised details) with their counts, most
+/// frequent first.
+fn tally<'a>(reasons: impl Iterator<Item = &'a str>, details: bool) -> Vec<(String, u64)> {
+    let mut out: Vec<(String, u64)> = Vec::new();
+    for r in reasons {
+        let mut reason = r.lines().next().unwrap_or("").to_string();
+        if !details {
+            reason = without_details(&reason);
+        }
+        match out.iter_mut().find(|(m, _)| *m == reason) {
+            Some(f) => f.1 += 1,
+            None => out.push((reason, 1)),
+        }
+    }
+    out.sort_by_key(|f| std::cmp::Reverse(f.1));
+    out
 }
 
 /// The display unit of each output: the one its probe declares, else one chosen for all the
@@ -255,22 +294,11 @@ impl Summary {
                 });
             }
         }
-        let mut failures: Vec<(String, u64)> = Vec::new();
-        for r in table.rows.iter().filter(|r| r.failed()) {
-            let reason = r
-                .error
-                .as_deref()
-                .unwrap_or("")
-                .lines()
-                .next()
-                .unwrap_or("")
-                .to_string();
-            match failures.iter_mut().find(|(m, _)| *m == reason) {
-                Some(f) => f.1 += 1,
-                None => failures.push((reason, 1)),
-            }
-        }
-        failures.sort_by_key(|f| std::cmp::Reverse(f.1));
+        let failures = tally(table.rows.iter().filter_map(|r| r.error.as_deref()), true);
+        let suspicions = tally(
+            table.rows.iter().filter_map(|r| r.suspect.as_deref()),
+            false,
+        );
         Summary {
             study: study.to_string(),
             samples: table.rows.len() as u64,
@@ -278,6 +306,8 @@ impl Summary {
             outputs: summaries,
             correlations,
             failures,
+            suspect: suspicions.iter().map(|(_, n)| n).sum(),
+            suspicions,
         }
     }
 
@@ -355,9 +385,14 @@ fn write_columns(s: &mut String, rows: &[Vec<String>]) {
 impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let mut s = String::new();
+        let suspect = if self.suspect > 0 {
+            format!(", {} suspect (in the statistics; see below)", self.suspect)
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "study {}: {} samples, {} failed",
+            "study {}: {} samples, {} failed{suspect}",
             self.study, self.samples, self.failed
         );
         let mut rows = vec![[
@@ -428,6 +463,9 @@ impl fmt::Display for Summary {
         }
         for (reason, n) in &self.failures {
             let _ = writeln!(s, "failed ×{n}: {reason}");
+        }
+        for (reason, n) in &self.suspicions {
+            let _ = writeln!(s, "suspect ×{n}: {reason}");
         }
         f.write_str(&s)
     }
