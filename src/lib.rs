@@ -7,6 +7,7 @@
 //! format, [`probe`] a run's named outputs, [`probe_run`] a run that produces them (extrapolated over a refinement window), [`trajectory`] recorded outputs, [`drawing`] SVG views of a mechanism, [`expr`]
 //! closed-form expressions, [`study`] the Monte-Carlo runner, store, statistics and sensitivity, [`report`] the HTML report.
 
+pub mod commands;
 pub mod drawing;
 pub mod expr;
 pub mod extremes;

@@ -1,0 +1,125 @@
+//! `mc-study converge`: runs the fidelity ladder of a study in parallel and reports it.
+
+use super::thread_pool;
+use crate::study::converge::{sigma_of, sweep, Fidelity, Ladder};
+use crate::study::subject::Subject;
+use crate::study::summary::Summary;
+use crate::study::Study;
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+
+/// `mc-study converge` arguments.
+pub struct ConvergeArgs<'a> {
+    pub study: &'a Path,
+    pub out: Option<&'a PathBuf>,
+    pub samples: u64,
+    pub results: Option<&'a PathBuf>,
+    pub target: Option<f64>,
+    pub hs: &'a [f64],
+    pub threads: Option<usize>,
+}
+
+/// `mc-study converge`: the ladder's table, converge.csv, the work–precision plot and
+/// the recommended fidelity.
+pub fn converge(args: ConvergeArgs) -> Result<()> {
+    let study = Study::load(args.study, None)?;
+    let Subject::Mechanism(scene) = &study.subject else {
+        bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
+    };
+    let base = Fidelity::of(&scene.params);
+    let mut ladder = Ladder::around_scene(scene, args.samples);
+    if !args.hs.is_empty() {
+        if let Some(h) = args.hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
+            bail!("--h: step sizes must be positive, got {h}");
+        }
+        ladder.fidelities = args
+            .hs
+            .iter()
+            .map(|&h| Fidelity { h, ..base.clone() })
+            .collect();
+        let finest = args.hs.iter().copied().fold(f64::INFINITY, f64::min);
+        ladder.reference.h = ladder.reference.h.min(finest / 2.0);
+    }
+    let results_dir = args
+        .results
+        .cloned()
+        .unwrap_or_else(|| study.output_dir.clone());
+    let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
+    let summary = Summary::load(&results_dir)?;
+    let sigma = summary.as_ref().and_then(|s| sigma_of(s, &names));
+    if summary.is_some() && sigma.is_none() {
+        eprintln!(
+            "note: {} lacks a positive σ for some output; errors are relative instead",
+            results_dir.join("summary.json").display()
+        );
+    }
+    let target = args
+        .target
+        .unwrap_or(if sigma.is_some() { 0.01 } else { 1e-3 });
+    if target.is_nan() || target <= 0.0 {
+        bail!("--target must be positive, got {target}");
+    }
+    match &sigma {
+        Some(_) => eprintln!(
+            "σ from {}; target: error < {target} σ",
+            results_dir.join("summary.json").display()
+        ),
+        None => eprintln!(
+            "no usable summary.json in {}: errors relative to the reference; target {target}",
+            results_dir.display()
+        ),
+    }
+    let total = (ladder.fidelities.len() + 1) as u64 * (1 + args.samples.min(study.runs()));
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} runs  {msg}")
+            .expect("template"),
+    );
+    let pool = thread_pool(args.threads)?;
+    let conv = pool
+        .install(|| {
+            sweep(&study, &ladder, sigma, |f, sample, run| {
+                bar.inc(1);
+                bar.set_message(format!("{} {sample}: {:.0} ms", f.label(), run.wall_ms));
+                if let Some(e) = &run.error {
+                    bar.println(format!("{} {sample}: failed: {e}", f.label()));
+                }
+            })
+        })
+        .map_err(anyhow::Error::msg)?;
+    bar.finish_and_clear();
+    print!("{conv}");
+    let dir = args
+        .out
+        .cloned()
+        .unwrap_or_else(|| study.output_dir.join("converge"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let csv = dir.join("converge.csv");
+    std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
+    let plot = crate::report::figures::save(
+        &crate::report::work_precision(&conv, target),
+        &dir.join("work-precision"),
+    )?;
+    eprintln!(
+        "runs: {}; work–precision plot: {} (and .png)",
+        csv.display(),
+        plot.display()
+    );
+    match conv.recommend(target) {
+        Some(f) => {
+            println!(
+                "cheapest fidelity with every error below {target}{}: {:.1} ms per sample",
+                if conv.sigma.is_some() { " σ" } else { "" },
+                conv.cost(f)
+            );
+            print!("{}", conv.fidelities[f].yaml());
+        }
+        None if conv.step_dependent().len() == conv.outputs.len() => println!(
+            "every output depends on the step size (see above): no fidelity can be recommended"
+        ),
+        None => println!(
+            "no fidelity of the ladder meets the target {target} on the outputs that converge; refine h"
+        ),
+    }
+    Ok(())
+}

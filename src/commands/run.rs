@@ -1,0 +1,99 @@
+//! `mc-study run`: runs a study (or a shard of it) into its result directory, stopping
+//! cleanly on a signal, and merges a complete unsharded run.
+
+use super::check_threads;
+use crate::study::merge::merge;
+use crate::study::runner::{self, RunOptions, Shard};
+use crate::study::stop_signals::StopSignals;
+use crate::study::Study;
+use anyhow::{bail, Result};
+use std::path::{Path, PathBuf};
+
+/// `mc-study run` arguments.
+pub struct RunArgs {
+    pub samples: Option<u64>,
+    pub out: Option<PathBuf>,
+    pub threads: Option<usize>,
+    pub shard: Option<Shard>,
+    pub quiet: bool,
+    pub part_rows: usize,
+    pub part_seconds: f64,
+}
+
+/// Runs a study; `Ok(Some(status))` when a stop signal came (the samples done are saved).
+pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
+    let study = Study::load(study, args.samples)?;
+    check_threads(args.threads)?;
+    if args.part_rows == 0 || args.part_seconds.is_nan() || args.part_seconds <= 0.0 {
+        bail!("--part-rows and --part-seconds must be positive");
+    }
+    let out = args.out.unwrap_or_else(|| study.output_dir.clone());
+    let mut opts = RunOptions::new(out.clone());
+    opts.threads = args.threads;
+    opts.shard = args.shard.unwrap_or(Shard::WHOLE);
+    opts.progress = !args.quiet;
+    opts.rows_per_part = args.part_rows;
+    opts.seconds_per_part = args.part_seconds;
+    let signals = StopSignals::listen(opts.stop.clone())?;
+    for o in &study.outputs {
+        if let Some(c) = &o.caution {
+            eprintln!("caution: {c}");
+        }
+    }
+    let (a, b) = opts.shard.range(study.runs());
+    let samples = if a < b {
+        format!("samples {a}–{}", b - 1)
+    } else {
+        "no samples (more shards than runs)".into()
+    };
+    eprintln!(
+        "study {} ({} design, {} runs, seed {}), shard {}/{} = {samples} → {}",
+        study.name,
+        study.design.kind.name(),
+        study.runs(),
+        study.seed,
+        opts.shard.index,
+        opts.shard.count,
+        out.display()
+    );
+    let r = runner::run(&study, &opts)?;
+    eprintln!(
+        "{} samples run ({} failed) into {} part file(s), {} already done, in {:.1} s ({:.1} samples/s)",
+        r.done,
+        r.failed,
+        r.parts,
+        r.skipped,
+        r.wall_seconds,
+        r.done as f64 / r.wall_seconds.max(1e-9)
+    );
+    if let Some(status) = signals.exit_status() {
+        eprintln!("stopped: every finished sample is saved; rerun the same command to resume");
+        return Ok(Some(status));
+    }
+    if r.interrupted {
+        eprintln!("interrupted: rerun the same command to resume");
+        return Ok(Some(130));
+    }
+    if r.missing.is_empty() && opts.shard.count == 1 {
+        let m = merge(&out, false)?;
+        print!("{}", m.summary);
+        eprintln!(
+            "results: {} ({} rows), {}",
+            m.path.display(),
+            m.rows,
+            out.join("summary.json").display()
+        );
+    } else if r.missing.is_empty() {
+        eprintln!(
+            "all samples of the study are done: run `mc-study merge {}`",
+            out.display()
+        );
+    } else {
+        eprintln!(
+            "shard done; {} samples of the study remain in other shards (`mc-study status {}`)",
+            r.missing.count(),
+            out.display()
+        );
+    }
+    Ok(None)
+}

@@ -1,0 +1,65 @@
+//! `mc-study simulate`: loads a scene, applies `--set`, runs it and prints its report.
+
+use crate::scene::Scene;
+use crate::simulate::{simulate, DrawingRequest, SimulateOptions};
+use anyhow::{bail, Result};
+use std::path::{Path, PathBuf};
+
+/// `mc-study simulate` arguments.
+pub struct SimulateArgs<'a> {
+    pub scene: &'a Path,
+    pub out: Option<&'a PathBuf>,
+    pub duration: Option<f64>,
+    pub sets: &'a [String],
+    pub svg: Option<&'a PathBuf>,
+    pub snapshots: &'a [String],
+    pub view: &'a str,
+}
+
+/// `mc-study simulate`: one run of a scene, its report, and the files asked for.
+pub fn simulate_command(args: SimulateArgs) -> Result<()> {
+    let mut scene = Scene::load(args.scene)?;
+    for s in args.sets {
+        scene
+            .apply_setting(s)
+            .map_err(|e| anyhow::anyhow!("--set {e}"))?;
+    }
+    if let Some(p) = args.out {
+        let ext = p.extension().and_then(|e| e.to_str());
+        if !matches!(ext, Some("csv" | "parquet")) {
+            bail!("--out must end in .csv or .parquet");
+        }
+    }
+    let duration = match args.duration {
+        Some(d) if !(d > 0.0 && d.is_finite()) => {
+            bail!("--duration must be a positive number of seconds, got {d}")
+        }
+        Some(d) => d,
+        None => scene.duration,
+    };
+    let drawing = match args.svg {
+        Some(svg) => Some(
+            DrawingRequest::parse(svg.clone(), args.snapshots, args.view, duration)
+                .map_err(anyhow::Error::msg)?,
+        ),
+        None if !args.snapshots.is_empty() => bail!("--snapshots needs --svg FILE"),
+        None => None,
+    };
+    let options = SimulateOptions {
+        duration: Some(duration),
+        trajectory: args.out.cloned(),
+        drawing,
+    };
+    let report = simulate(&scene, &args.scene.display().to_string(), &options)?;
+    print!("{report}");
+    if let Some(e) = &report.error {
+        bail!("{e}");
+    }
+    if report.nonconverged_steps() > 0 {
+        eprintln!(
+            "warning: {} step(s) did not converge; see the counts above",
+            report.nonconverged_steps()
+        );
+    }
+    Ok(())
+}
