@@ -134,46 +134,39 @@ impl Subject {
         let start = Instant::now();
         let result =
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.run_inner(parameters)));
-        let (values, mut diagnostics, error, suspect) = match result {
-            Ok(r) => r,
-            Err(panic) => {
-                let msg = panic
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_else(|| "unknown panic".into());
-                (
-                    Vec::new(),
-                    Diagnostics::default(),
-                    Some(format!("internal error (panic): {msg}")),
-                    None,
-                )
-            }
-        };
-        diagnostics.wall_ms = start.elapsed().as_secs_f64() * 1e3;
-        let outputs = selected
+        let mut o = result.unwrap_or_else(|panic| {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            failed(
+                Diagnostics::default(),
+                format!("internal error (panic): {msg}"),
+            )
+        });
+        o.diagnostics.wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        o.outputs = selected
             .iter()
-            .map(|&k| if error.is_none() { values[k] } else { f64::NAN })
+            .map(|&k| {
+                if o.error.is_none() {
+                    o.outputs[k]
+                } else {
+                    f64::NAN
+                }
+            })
             .collect();
-        Outcome {
-            outputs,
-            diagnostics,
-            suspect: if error.is_none() { suspect } else { None },
-            error,
-        }
+        o
     }
 
-    #[allow(clippy::type_complexity)]
-    fn run_inner(
-        &self,
-        parameters: &[(&str, f64)],
-    ) -> (Vec<f64>, Diagnostics, Option<String>, Option<String>) {
+    /// The outcome with every output of the subject, in its order.
+    fn run_inner(&self, parameters: &[(&str, f64)]) -> Outcome {
         match self {
             Subject::Function(f) => {
                 let mut f = f.clone();
                 for &(path, v) in parameters {
                     if let Err(e) = f.set_parameter(path, v) {
-                        return (Vec::new(), Diagnostics::default(), Some(e), None);
+                        return failed(Diagnostics::default(), e);
                     }
                 }
                 let values = f.evaluate();
@@ -182,23 +175,21 @@ impl Subject {
                     .zip(&f.outputs)
                     .find(|(v, _)| !v.is_finite())
                     .map(|(v, o)| format!("output `{}` is {v}", o.name));
-                (values, Diagnostics::default(), error, None)
+                Outcome {
+                    outputs: values,
+                    diagnostics: Diagnostics::default(),
+                    error,
+                    suspect: None,
+                }
             }
             Subject::Mechanism(scene) => {
                 let scene = match scene.with_parameters(parameters) {
                     Ok(s) => s,
-                    Err(e) => return (Vec::new(), Diagnostics::default(), Some(e), None),
+                    Err(e) => return failed(Diagnostics::default(), e),
                 };
                 let sim = match scene.simulation() {
                     Ok(s) => s,
-                    Err(e) => {
-                        return (
-                            Vec::new(),
-                            Diagnostics::default(),
-                            Some(e.to_string()),
-                            None,
-                        )
-                    }
+                    Err(e) => return failed(Diagnostics::default(), e.to_string()),
                 };
                 let initial_overlap = sim.stats.max_penetration;
                 let run = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
@@ -218,17 +209,29 @@ impl Subject {
                     None => run.values.into_iter().collect(),
                 };
                 match (values, suspect) {
-                    (Ok(values), suspect) => (values, diagnostics, None, suspect),
-                    // the fault explains a failure better than its symptom does
-                    (Err(e), Some(why)) => (
-                        Vec::new(),
+                    (Ok(outputs), suspect) => Outcome {
+                        outputs,
                         diagnostics,
-                        Some(format!("{e}; the run was suspect: {why}")),
-                        None,
-                    ),
-                    (Err(e), None) => (Vec::new(), diagnostics, Some(e), None),
+                        error: None,
+                        suspect,
+                    },
+                    // the fault explains a failure better than its symptom does
+                    (Err(e), Some(why)) => {
+                        failed(diagnostics, format!("{e}; the run was suspect: {why}"))
+                    }
+                    (Err(e), None) => failed(diagnostics, e),
                 }
             }
         }
+    }
+}
+
+/// A failed outcome (its outputs are filled in by [`Subject::run`]).
+fn failed(diagnostics: Diagnostics, error: String) -> Outcome {
+    Outcome {
+        outputs: Vec::new(),
+        diagnostics,
+        error: Some(error),
+        suspect: None,
     }
 }
