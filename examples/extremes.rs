@@ -26,6 +26,12 @@ fn main() {
             cases.push(extremes::oblique_ball(e, mu));
         }
     }
+    for h in [1e-2, 5e-2] {
+        cases.push(extremes::coarse_clearance_pendulum(h));
+    }
+    for n in [3, 5, 10] {
+        cases.push(extremes::row_of_balls(n));
+    }
     cases.push(extremes::spinning_body(1e4, 1e-5, 1_000_000));
     cases.push(extremes::spinning_body(1e4, 1e-4, 1_000_000));
     let long = extremes::clearance_pendulum(7e-5, 1e-5, 0.1, 0.0, 10.0, 1_000_000);

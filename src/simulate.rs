@@ -284,6 +284,13 @@ impl fmt::Display for SimulateReport {
         if self.locate_impacts {
             writeln!(f, "impacts located  {} steps split", st.impact_splits)?;
         }
+        if st.halved_steps > 0 {
+            writeln!(
+                f,
+                "halved steps     {} (the contact or projection problem was not solved, or a journal would have left its bore)",
+                st.halved_steps
+            )?;
+        }
         let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
         writeln!(
             f,

@@ -83,3 +83,21 @@ fn fast_spin_long_run_stiff_springs_and_a_stack_of_boxes() {
     // the stack stays at rest: its energy does not move
     assert!(cells.last().unwrap().energy_drift < 1e-9);
 }
+
+/// Steps far coarser than a 10 mm clearance (h = 0.01 and 0.05 s), and a row of balls whose
+/// impacts all fall in one step: they run to their ends, within the tolerances.
+#[test]
+fn coarse_steps_on_a_wide_clearance_and_impacts_closer_than_v_h() {
+    let mut cases = vec![
+        extremes::coarse_clearance_pendulum(1e-2),
+        extremes::coarse_clearance_pendulum(5e-2),
+    ];
+    for n in [3, 5] {
+        cases.push(extremes::row_of_balls(n));
+    }
+    let cells = check(cases);
+    // the elastic frictionless row keeps its energy
+    for c in &cells[2..] {
+        assert!(c.energy_drift < 1e-12, "{}: {}", c.label, c.energy_drift);
+    }
+}

@@ -5,7 +5,7 @@
 
 use super::moreau_jean::advance_poses;
 use super::projection::ContactRows;
-use super::simulation::{Outcome, Simulation, StepReport};
+use super::simulation::{Closing, Outcome, Simulation, StepReport};
 use crate::mechanics::ContactPoint;
 
 /// A guard enters the velocity problem only when the step would carry the journal past it
@@ -103,7 +103,15 @@ impl Simulation {
                 last = Some((active, vs, poses, after));
                 break;
             }
-            closing.extend(new.iter().map(|&i| (i, after[i].gap())));
+            // a contact that the first pass (the motion without this step's new impulses)
+            // leaves open, and that was not approaching at the start, is knocked shut by
+            // another contact's impact
+            closing.extend(new.iter().map(|&i| Closing {
+                candidate: i,
+                end_gap: after[i].gap(),
+                knocked: pass > 1
+                    && self.points[i].local_velocity(self.state.v.as_slice()).x >= 0.0,
+            }));
             last = Some((active.clone(), vs, poses, after));
             active.extend(new);
             active.sort_unstable();

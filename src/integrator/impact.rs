@@ -3,9 +3,9 @@
 //! step of length 0: Moreau's impact law alone) and the rest of the step.
 
 use super::moreau_jean::VelocityStep;
+use super::parts::{Depth, Sum};
 use super::projection::ProjectionOutcome;
 use super::simulation::{Outcome, SimError, Simulation, StepReport};
-use nalgebra::Vector3;
 
 /// The report of an impact (a velocity step of length 0, nothing projected).
 fn impact_report(vs: &VelocityStep) -> StepReport {
@@ -30,32 +30,30 @@ impl Simulation {
         trial
             .closing
             .iter()
-            .filter_map(|&(i, end_gap)| {
-                let g0 = self.points[i].gap();
-                (g0 > 0.0 && end_gap < 0.0).then(|| (i, g0 / (g0 - end_gap)))
+            .filter_map(|c| {
+                let g0 = self.points[c.candidate].gap();
+                (g0 > 0.0 && c.end_gap < 0.0).then(|| (c.candidate, g0 / (g0 - c.end_gap)))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
     /// The step redone in three parts: up to the impact of contact `i` at fraction `s` of
     /// the step, the impact itself (a step of length 0: the frictional impact law alone, on
-    /// the contacts that the whole step closed and those touching then), and the rest of
-    /// the step from the post-impact velocity. The θ-rule would otherwise move the bodies over the whole step with the
-    /// mean of the pre- and post-impact velocities, which misplaces them by up to h/2 times
-    /// the velocity jump, whatever h resolves elsewhere. The step's impulses are the sums
-    /// of its parts', so that impulse / h stays the step's mean force.
+    /// the contacts that take it together), and the rest of the step from the post-impact
+    /// velocity, which may hold further impacts. The θ-rule would otherwise move the bodies
+    /// over the whole step with the mean of the pre- and post-impact velocities, which
+    /// misplaces them by up to h/2 times the velocity jump, whatever h resolves elsewhere.
+    /// The step's impulses are the sums of its parts' (`parts::Sum`).
     pub(super) fn split_at_impact(
         &mut self,
         i: usize,
         s: f64,
         in_step: &[usize],
         t_end: f64,
+        depth: Depth,
     ) -> Result<StepReport, SimError> {
         let (h, t_start) = (self.h, self.state.t);
-        let mut impulses = vec![Vector3::zeros(); self.points.len()];
-        let add = |sim: &Simulation, sum: &mut Vec<Vector3<f64>>| {
-            sum.iter_mut().zip(&sim.impulses).for_each(|(a, b)| *a += b);
-        };
+        let mut sum = Sum::new(self);
         // The part before ends a hair (1e-6 of it) short of the contact, which it must not
         // close itself; where the gap's curvature over the step put the estimate past the
         // contact, the secant on the part just computed corrects it. A part shorter than
@@ -68,25 +66,22 @@ impl Simulation {
             self.h = s * h;
             let part = self.compute()?;
             tries += 1;
-            match part.closing.iter().find(|c| c.0 == i) {
-                Some(&(_, end_gap)) if s > 1e-3 && tries < 4 => {
-                    s *= g0 / (g0 - end_gap) * (1.0 - 1e-6)
-                }
+            match part.closing.iter().find(|c| c.candidate == i) {
+                Some(c) if s > 1e-3 && tries < 4 => s *= g0 / (g0 - c.end_gap) * (1.0 - 1e-6),
                 _ => break part,
             }
         };
         let first = self.commit(before, t_start + s * h);
-        add(self, &mut impulses);
-        let mut joint_impulses = self.joint_impulses.clone();
-        // The impact, at the poses it happens at, on the contacts of the whole step as the
-        // unsplit step had them (`in_step`, with the guards that stop a journal crossing
-        // its clearance), those of the part before, and every one that touches then (a gap
-        // no wider than the impacting contact's, plus the activation margin): the contacts
-        // the step closes take its impact together, as Moreau's law has them, not one after
-        // the other. Contacts that close together (the two rings of a journal swinging in
-        // its plane, a box's corners) and a journal that the blow drives across a tiny
-        // clearance (which an ideal joint takes in the same impulse) need it: taken one
-        // after the other, with e = 0, they lose other momenta.
+        sum.add(self);
+        // The impact, at the poses it happens at, on the contacts that take it together, as
+        // Moreau's law has them: those touching then (a gap no wider than the impacting
+        // contact's, plus the activation margin), those of the part before, and those of the
+        // whole step as the unsplit step had them (`in_step`: the two rings of a journal
+        // swinging in its plane, a box's corners; taken one after the other, with e = 0,
+        // they lose other momenta), with the guards that stop a journal the blow drives
+        // across its clearance. A contact this impact knocks shut is not among them: it
+        // takes its own impact in the rest of the step (a row of balls passes the blow on
+        // one ball at a time).
         self.h = 0.0;
         let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
         let mut member = vec![false; self.points.len()];
@@ -106,27 +101,16 @@ impl Simulation {
                 step: self.stats.steps,
             });
         }
-        self.impulses.iter_mut().for_each(|x| *x = Vector3::zeros());
-        for (&k, imp) in active.iter().zip(&vs.impulses) {
-            self.impulses[k] = *imp;
-        }
-        add(self, &mut impulses);
+        self.record_contacts(&active, &vs);
+        self.joint_impulses = vs.joint_impulses.clone();
+        sum.add(self);
         let impact = impact_report(&vs);
         self.active = active;
         self.state.v = vs.v;
         self.h = (1.0 - s) * h;
-        let after = self.compute()?;
-        let mut report = self.commit(after, t_end);
-        add(self, &mut impulses);
-        self.impulses = impulses;
-        if joint_impulses.len() == self.joint_impulses.len() {
-            let add_rows = |a: &mut Vec<f64>, b: &[f64]| {
-                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-            };
-            add_rows(&mut joint_impulses, &vs.joint_impulses);
-            add_rows(&mut joint_impulses, &self.joint_impulses);
-            self.joint_impulses = joint_impulses;
-        }
+        let mut report = self.advance(t_end, depth)?;
+        sum.add(self);
+        sum.store(self);
         self.h = h;
         for part in [&first, &impact] {
             report.absorb(part);

@@ -7,6 +7,7 @@ mod impact;
 pub mod iteration_matrix;
 pub mod moreau_jean;
 pub mod params;
+mod parts;
 pub mod projection;
 pub mod schedule;
 pub mod simulation;

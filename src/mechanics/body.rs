@@ -62,6 +62,17 @@ pub enum Motion {
     Fixed,
 }
 
+/// A body held to a plane of the world: its translation along the plane's normal (world
+/// axis `normal`) and its rotations about the two body axes other than `spin` (the body
+/// axis along that normal) are held. For planar mechanisms whose out-of-plane motion is
+/// not part of the question: a journal with a large clearance in a short bore can tilt a
+/// long way, and a swing that starts in its plane can leave it (docs/clearance-joint.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Planar {
+    pub normal: usize,
+    pub spin: usize,
+}
+
 /// Shapes whose inertia can be derived from the mass (uniform density, about the centre).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
@@ -109,6 +120,8 @@ pub struct RigidBody {
     /// Angular velocity Ω, body frame.
     pub angular_velocity: Vector3<f64>,
     pub motion: Motion,
+    /// Held to a plane, on top of `motion`.
+    pub planar: Option<Planar>,
 }
 
 impl RigidBody {
@@ -121,6 +134,7 @@ impl RigidBody {
             velocity: Vector3::zeros(),
             angular_velocity: Vector3::zeros(),
             motion: Motion::Free,
+            planar: None,
         }
     }
 
@@ -153,11 +167,18 @@ impl RigidBody {
 
     /// `true` for the degrees of freedom that are integrated (3 translations, 3 rotations).
     pub fn dof_mask(&self) -> [bool; 6] {
-        match self.motion {
+        let mut mask = match self.motion {
             Motion::Free => [true; 6],
             Motion::Pinned => [false, false, false, true, true, true],
             Motion::Fixed => [false; 6],
+        };
+        if let Some(p) = self.planar {
+            mask[p.normal] = false;
+            (0..3)
+                .filter(|&k| k != p.spin)
+                .for_each(|k| mask[3 + k] = false);
         }
+        mask
     }
 
     /// Kinetic energy ½ m |v|² + ½ Ωᵀ I Ω for the given twist.

@@ -6,7 +6,7 @@ pub mod force;
 pub mod joint;
 pub mod model;
 
-pub use body::{BodyRef, Motion, Pose, RigidBody, Shape, Twist};
+pub use body::{BodyRef, Motion, Planar, Pose, RigidBody, Shape, Twist};
 pub use contact::{ContactGeometry, ContactPair, ContactPoint, Primitive};
 pub use force::{ExternalLoad, Force, PointSpring, Profile, TorsionalSpring};
 pub use model::Model;

@@ -120,7 +120,7 @@ impl Model {
             j.apply_effort(t, poses, out.as_mut_slice());
         }
         for (i, b) in self.bodies.iter().enumerate() {
-            if b.motion != Motion::Free {
+            if b.motion != Motion::Free || b.planar.is_some() {
                 let mask = b.dof_mask();
                 for k in 0..6 {
                     if !mask[k] {

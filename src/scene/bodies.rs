@@ -3,9 +3,10 @@
 
 use super::error::{line, SceneError};
 use super::fields::{opt_vec3, orientation, positive, values, vec3, R};
+use super::schema::Name;
 use super::schema::{BodySpec, ShapeSpec};
 use super::units::Dim;
-use crate::mechanics::{Motion, RigidBody, Shape};
+use crate::mechanics::{Model, Motion, Planar, RigidBody, Shape};
 use nalgebra::Matrix3;
 
 pub(super) fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
@@ -85,6 +86,55 @@ pub(super) fn body(spec: &BodySpec, i: usize) -> R<RigidBody> {
         )?;
     }
     Ok(b)
+}
+
+/// Holds every moving body to the world plane `plane` (`xy`, `xz`, `yz`). Each needs a body
+/// axis along the plane's normal, and no written velocity out of the plane.
+pub(super) fn hold_to_plane(model: &mut Model, plane: &Name, specs: &[BodySpec]) -> R<()> {
+    let normal = match plane.value.as_str() {
+        "yz" => 0,
+        "xz" => 1,
+        "xy" => 2,
+        other => {
+            return Err(SceneError::at(
+                line(plane),
+                "plane",
+                format!("unknown plane `{other}` (use xy, xz or yz)"),
+            ))
+        }
+    };
+    let axis = ["x", "y", "z"][normal];
+    for (i, (b, spec)) in model.bodies.iter_mut().zip(specs).enumerate() {
+        if b.motion == Motion::Fixed {
+            continue;
+        }
+        let n = nalgebra::Vector3::ith(normal, 1.0);
+        let body_n = b.pose.p.inverse() * n;
+        let Some(spin) = (0..3).find(|&k| body_n[k].abs() > 1.0 - 1e-12) else {
+            return Err(SceneError::at(
+                spec.orientation.as_ref().and_then(line).or(line(&spec.name)),
+                format!("bodies[{i}].orientation"),
+                format!(
+                    "in a scene held to the {} plane, every moving body needs one of its axes along {axis}",
+                    plane.value
+                ),
+            ));
+        };
+        let out_of_plane =
+            b.velocity[normal] != 0.0 || (0..3).any(|k| k != spin && b.angular_velocity[k] != 0.0);
+        if out_of_plane {
+            return Err(SceneError::at(
+                line(&spec.name),
+                format!("bodies[{i}]"),
+                format!(
+                    "moves out of the {} plane: its velocity must have no {axis} component and its angular velocity must be about {axis}",
+                    plane.value
+                ),
+            ));
+        }
+        b.planar = Some(Planar { normal, spin });
+    }
+    Ok(())
 }
 
 pub(super) fn shape(s: &ShapeSpec, field: &str, _line: Option<u64>) -> R<Shape> {

@@ -53,6 +53,9 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         }
         model.bodies.push(super::bodies::body(b, i)?);
     }
+    if let Some(plane) = &spec.plane {
+        super::bodies::hold_to_plane(&mut model, plane, &spec.bodies)?;
+    }
     for (i, c) in spec.contacts.iter().enumerate() {
         let pair = super::shapes::contact(&model, c, i)?;
         model.contacts.push(pair);

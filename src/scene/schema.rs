@@ -21,6 +21,8 @@ pub struct SceneSpec {
     pub duration: Q,
     /// Default (0, 0, −9.81) m/s².
     pub gravity: Option<Vector>,
+    /// `xy`, `xz` or `yz`: every moving body is held to that plane of the world.
+    pub plane: Option<Name>,
     #[serde(default)]
     pub integrator: IntegratorSpec,
     pub bodies: Vec<BodySpec>,

@@ -1,0 +1,142 @@
+//! A step taken in parts: as two halves where it is not resolved (its contact or projection
+//! problem unsolved, or a journal that would leave its bore), or split at an impact
+//! (`impact.rs`). The step's impulses are the sums of its parts', so that impulse / h stays
+//! the step's mean force.
+
+use super::simulation::{Outcome, SimError, Simulation, StepReport};
+use super::Scheme;
+use nalgebra::Vector3;
+
+/// Halvings of one step at most: a step is never cut below 1/64 of its size.
+const MAX_HALVINGS: usize = 6;
+
+/// Impact splits within one step at most (a row of balls passes a blow on through one
+/// split per ball).
+const MAX_SPLITS: usize = 16;
+
+/// How far a step has been cut: the halvings and the impact splits above the part being
+/// taken.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Depth {
+    halvings: usize,
+    splits: usize,
+}
+
+/// The impulses of the parts of a step, summed.
+pub(super) struct Sum {
+    impulses: Vec<Vector3<f64>>,
+    joint_impulses: Option<Vec<f64>>,
+}
+
+impl Sum {
+    pub(super) fn new(sim: &Simulation) -> Self {
+        Sum {
+            impulses: vec![Vector3::zeros(); sim.impulses.len()],
+            joint_impulses: None,
+        }
+    }
+
+    /// Adds the impulses of the part just taken.
+    pub(super) fn add(&mut self, sim: &Simulation) {
+        self.impulses
+            .iter_mut()
+            .zip(&sim.impulses)
+            .for_each(|(a, b)| *a += b);
+        match &mut self.joint_impulses {
+            None => self.joint_impulses = Some(sim.joint_impulses.clone()),
+            Some(sum) if sum.len() == sim.joint_impulses.len() => sum
+                .iter_mut()
+                .zip(&sim.joint_impulses)
+                .for_each(|(a, b)| *a += b),
+            Some(_) => {}
+        }
+    }
+
+    /// The sums as the step's impulses.
+    pub(super) fn store(self, sim: &mut Simulation) {
+        sim.impulses = self.impulses;
+        if let Some(joint) = self.joint_impulses {
+            sim.joint_impulses = joint;
+        }
+    }
+}
+
+impl Simulation {
+    /// Takes the step of size `self.h` from the current state to `t_end`: as two halves
+    /// where it is not resolved (`too_coarse`, or a trial that fails on its geometry, such
+    /// as a journal that would leave its bore), split at an impact with `locate_impacts` or
+    /// where one impact knocks another contact shut.
+    pub(super) fn advance(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
+        let trial = self.compute();
+        let coarse = match &trial {
+            Err(SimError::Geometry { .. } | SimError::NonFinite { .. }) => true,
+            Err(_) => false,
+            Ok(outcome) => self.too_coarse(outcome),
+        };
+        if coarse && depth.halvings < MAX_HALVINGS {
+            return self.halves(t_end, depth);
+        }
+        let trial = trial?;
+        // Impacts are located on request, and always where one knocks another contact shut
+        // within the step: taken together, they would share their momentum as a
+        // simultaneous impact does (a row of balls struck at one end would leave at
+        // (−1/3, 2/3, 2/3), not (0, 0, 1)).
+        let knocked: Vec<usize> = trial
+            .closing
+            .iter()
+            .filter(|c| c.knocked)
+            .map(|c| c.candidate)
+            .collect();
+        let locate = self.params.locate_impacts || !knocked.is_empty();
+        let impact = match locate && depth.splits < MAX_SPLITS {
+            true => self.first_impact(&trial),
+            false => None,
+        };
+        let Some((i, s)) = impact else {
+            return Ok(self.commit(trial, t_end));
+        };
+        // the contacts the impact takes together, less those it knocks shut
+        let in_step: Vec<usize> = trial
+            .active
+            .iter()
+            .copied()
+            .filter(|k| !knocked.contains(k))
+            .collect();
+        let depth = Depth {
+            splits: depth.splits + 1,
+            ..depth
+        };
+        self.split_at_impact(i, s, &in_step, t_end, depth)
+    }
+
+    /// The step as two halves, each taken as `advance` takes a step.
+    fn halves(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
+        let h = self.h;
+        let top = depth.halvings == 0 && depth.splits == 0;
+        let depth = Depth {
+            halvings: depth.halvings + 1,
+            ..depth
+        };
+        let t_mid = self.state.t + 0.5 * h;
+        let mut sum = Sum::new(self);
+        self.h = 0.5 * h;
+        let first = self.advance(t_mid, depth)?;
+        sum.add(self);
+        self.h = t_end - self.state.t;
+        let mut report = self.advance(t_end, depth)?;
+        sum.add(self);
+        sum.store(self);
+        self.h = h;
+        report.absorb(&first);
+        self.stats.halved_steps += u64::from(top);
+        Ok(report)
+    }
+
+    /// Whether the step is too coarse for its contacts: the contact problem was not solved,
+    /// or the projection found no admissible position. A coarse step on a clearance joint
+    /// (a journal swept around its bore, or across it) is one such; its halves are not.
+    fn too_coarse(&self, trial: &Outcome) -> bool {
+        let projected = self.params.scheme != Scheme::MoreauJean;
+        !trial.vs.solver.converged || (projected && !trial.report.projection.converged)
+    }
+}
