@@ -1,6 +1,7 @@
 //! The frictionless clearance pendulum (bar 1 m, 1 kg, c = 10 mm, e = 0.5, journal centred,
 //! released horizontal) at steps from fine to far coarser than its clearance: no accepted
-//! state penetrates, and a planar run stays in its plane.
+//! state penetrates or gains energy, plain Moreau–Jean's drift into the concave bore wall
+//! is that of its impacts, and a planar run stays in its plane.
 
 mod common;
 
@@ -62,6 +63,27 @@ fn coarse_steps_neither_abort_nor_gain_energy() {
             assert!(sim.stats.halved_steps > 0, "h = {h}: no step was halved");
         }
     }
+}
+
+/// Plain Moreau–Jean keeps no position constraint: its penetration is the depth its impacts
+/// reach within their steps, O(h). Sliding along the concave bore adds none of its own: a
+/// contact that stays closed takes its impulse on the rows at mid-step and its velocity
+/// condition on the rows at the step's end, so the curved wall does not pull it in.
+/// Siconos' Moreau–Jean penetrates 3.2e-5 m at h = 1e-4 (on start-of-step rows ours sank
+/// 7.1e-4 m at 1e-4 and 7.6e-3 m at 1e-3).
+#[test]
+fn plain_moreau_jean_sinks_into_the_bore_only_by_its_impacts() {
+    let mut depth = Vec::new();
+    for h in [1e-3, 1e-4] {
+        let mut sim = pendulum(Scheme::MoreauJean, h, true);
+        let (rise, penetration) = rise_and_penetration(&mut sim, 1.0);
+        assert!(rise < 1e-12, "h = {h}: energy rose by {rise:.3e} J");
+        depth.push(penetration);
+    }
+    // 1.20e-4 and 3.22e-5 m measured
+    assert!(depth[0] < 1.5e-4, "h = 1e-3: {:.3e} m", depth[0]);
+    assert!(depth[1] < 4e-5, "h = 1e-4: {:.3e} m", depth[1]);
+    assert!(depth[1] < depth[0] / 3.0, "not O(h): {depth:?}");
 }
 
 /// Swinging in its plane, the bar is unstable about its long axis (its roll grows from

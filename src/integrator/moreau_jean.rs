@@ -2,8 +2,10 @@
 //!
 //! M (v₁ − v₀) − h[θ F(t₁, q₁, v₁) + (1 − θ) F(t₀, q₀, v₀)] = Σ_α G_αᵀ P_α,
 //! q₁ = q₀ ⊕ h v_θ, with the active contacts' impulses from FC3D on the shifted local
-//! velocity U_N,₁ + e U_N,₀ (Newton impact law). A Newton loop handles nonlinear forces;
-//! the contact Jacobians are frozen at q₀.
+//! velocity U_N,₁ + e U_N,₀ (Newton impact law). A Newton loop handles nonlinear forces.
+//! A contact that closes within the step has its rows frozen at q₀ (so that an impact
+//! with e = 1 keeps the kinetic energy exactly); without a projection, one that was
+//! already closed is treated as the joints are (`ActiveAt`).
 
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
@@ -15,6 +17,28 @@ use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
 /// The joints' bilateral rows evaluated at a time and poses.
 pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>;
+
+/// The active contacts at positions `which` evaluated at other poses.
+pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
+
+/// The active contacts evaluated at other poses, and those of them that were closed when
+/// the step began (persistent). Like the joints' rows (`Elimination`), a persistent
+/// contact's impulse acts along its rows at the step's midpoint and its velocity is
+/// measured at the step's end: a contact sliding along a concave surface, or carried on a
+/// long lever by a turning body, then drifts off its surface by O(h³) per step instead of
+/// O(h²) (a pendulum on a 10 mm clearance joint at h = 1e-4 sank 7.1e-4 m into its bore
+/// in 1 s with start-of-step rows, 3.2e-5 m with these), and steady sliding along a
+/// circle does no work. The Delassus matrix is then not symmetric, which slows the
+/// solver; the projecting schemes, which remove drift anyway, give none. A contact
+/// that closes within the step keeps the rows it is given: the same rows then measure its
+/// impulse and both velocities of Newton's law, which is what makes an impact with e = 1
+/// keep the kinetic energy and one with e < 1 lose it, at any step.
+pub struct ActiveAt<'a> {
+    /// Positions of the persistent contacts among the active ones, ascending.
+    pub persistent: Vec<usize>,
+    /// The active contacts at positions `which` evaluated at the given poses, in order.
+    pub at: ContactsAt<'a>,
+}
 
 /// Result of the velocity step.
 #[derive(Clone, Debug)]
@@ -49,6 +73,11 @@ pub fn advance_poses(
         })
         .collect()
 }
+
+/// A persistent contact whose normal turns by more than this (rad) over its step acts on
+/// its midpoint rows and meets its velocity condition on its end rows. Below, the start
+/// rows differ from those by less than the solver's tolerance.
+const NORMAL_TURN: f64 = 1e-6;
 
 fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>)> {
     let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
@@ -151,13 +180,14 @@ pub struct StepStart<'a> {
 }
 
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
-/// warm-started from `warm` (one impulse per active contact), and the bilateral rows
-/// of the joints, `joints(q̄)` (rates b at t + h/2). The joints are imposed at the
-/// midpoint, H(q_{k+½}) (v_k + v_{k+1})/2 = b, with q_{k+½} from the current Newton
-/// iterate: this keeps the θ = 1/2 scheme second order on constrained motion, where
-/// frozen start-of-step rows H(q_k) v_{k+1} = b are only first order (measured on the
-/// pendulum: order 2.00 vs 1.00, 230× smaller error at h = 1 ms). The position drift left
-/// is O(h³) per step and the projection removes it.
+/// warm-started from `warm` (one impulse per active contact), with the persistent ones
+/// of `contacts` at mid-step and end rows, and the bilateral rows of the joints,
+/// `joints(q̄)` (rates b at t + h/2). The joints are imposed at the midpoint,
+/// H(q_{k+½}) (v_k + v_{k+1})/2 = b, with q_{k+½} from the current Newton iterate: this
+/// keeps the θ = 1/2 scheme second order on constrained motion, where frozen
+/// start-of-step rows H(q_k) v_{k+1} = b are only first order (measured on the pendulum:
+/// order 2.00 vs 1.00, 230× smaller error at h = 1 ms). The position drift left is
+/// O(h³) per step and the projection removes it.
 ///
 /// The Delassus matrix is assembled block by block from the sparse contact Jacobians.
 /// With joints the equality rows are eliminated exactly (Schur complement, `Elimination`)
@@ -167,6 +197,7 @@ pub fn velocity_step(
     start: &StepStart,
     active: &[&ContactPoint],
     warm: &[Vector3<f64>],
+    contacts: Option<&ActiveAt>,
     joints: Option<JointRowsAt>,
 ) -> VelocityStep {
     let StepStart {
@@ -187,20 +218,31 @@ pub fn velocity_step(
     f0.axpy(-alpha, &mv, 1.0);
     let momentum_scale = mv.norm() + h * f0.norm();
 
-    let blocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
+    // the rows the impulses act along (G) and those the end-of-step velocity meets (H, when
+    // they differ): the start-of-step ones, but at the midpoint and the end for the
+    // persistent contacts whose normal turns
+    let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
+    let mut gblocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
+    let mut hblocks: Option<Vec<_>> = None;
     let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
     // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
     // keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
     // never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
     // it asks U_N,k+1 ≥ 0 only, as an ordinary contact would: requiring the body to move
     // back could contradict a contact on the other side (the journal's closest point), and
-    // the projection removes what remains.
+    // the projection removes what remains. A persistent contact takes no restitution: it
+    // is closed, and what its start-of-step rows show as approach is the turn of its frame
+    // over the last step (sliding along a concave surface), not an impact.
+    let is_persistent = |c: usize| persistent.is_some_and(|p| p.persistent.contains(&c));
     let shift: Vec<f64> = active
         .iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(k, c)| {
             let u0 = c.local_velocity(v0.as_slice()).x;
             if c.gap_law && h > 0.0 {
                 ((c.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+            } else if is_persistent(k) {
+                0.0
             } else {
                 c.e * u0
             }
@@ -240,7 +282,7 @@ pub fn velocity_step(
             if let Some(e) = &elimination {
                 reactions -= e.gmat.tr_mul(&q_joint);
             }
-            let res = newton_residual(&reactions, &blocks, &r, mask);
+            let res = newton_residual(&reactions, &gblocks, &r, mask);
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
             {
                 converged = true;
@@ -253,10 +295,31 @@ pub fn velocity_step(
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta, alpha);
         let v_free = &v - w.solve(&resid);
+        let mid = (persistent.is_some() || joints.is_some())
+            .then(|| advance_poses(poses, v0, &v, 0.5 * h, 0.5));
+        if let (Some(c), Some(mid), 0) = (persistent, &mid, iterations - 1) {
+            let at_mid = (c.at)(mid, &c.persistent);
+            let at_end = (c.at)(&poses1, &c.persistent);
+            for (k, &a) in c.persistent.iter().enumerate() {
+                // a normal that does not turn over the step keeps the start rows (and the
+                // Delassus matrix symmetric, which the solver's sweeps need to converge
+                // fast)
+                let n0 = active[a].frame.row(0);
+                let turn = (at_mid[k].frame.row(0) - n0)
+                    .norm()
+                    .max((at_end[k].frame.row(0) - n0).norm());
+                if turn <= NORMAL_TURN {
+                    continue;
+                }
+                hblocks.get_or_insert_with(|| gblocks.clone())[a] =
+                    contact_blocks(&at_end[k], mask);
+                gblocks[a] = contact_blocks(&at_mid[k], mask);
+            }
+        }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         elimination = joints.map(|rows_at| {
-            let mid = advance_poses(poses, v0, &v, 0.5 * h, 0.5);
-            let (gmat, _) = bilateral_matrix(&rows_at(t + 0.5 * h, &mid), mask, ndof);
+            let mid = mid.as_ref().expect("midpoint poses with joints");
+            let (gmat, _) = bilateral_matrix(&rows_at(t + 0.5 * h, mid), mask, ndof);
             let (hmat, rates) = bilateral_matrix(&rows_at(t + h, &poses1), mask, ndof);
             Elimination::new(&w, gmat, hmat, rates)
         });
@@ -275,13 +338,13 @@ pub fn velocity_step(
         // each contact's response W⁻¹Gᵀ, sparse over the bodies; with joints, constrained
         // (y − W⁻¹Hᵀ S⁻¹ H y), keeping S⁻¹ H y for the joint impulses
         let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-            blocks.iter().map(|b| w.solve_contact(b)).collect();
+            gblocks.iter().map(|b| w.solve_contact(b)).collect();
         let corrections: Vec<Option<DMatrix<f64>>> = match &elimination {
             Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
             None => Vec::new(),
         };
         let n = active.len();
-        // Delassus blocks W_cd = Σ_b G_cb y_db over the bodies b both contacts move: the
+        // Delassus blocks W_cd = Σ_b H_cb y_db over the bodies b both contacts move: the
         // responses indexed by body, so that only the nonzero blocks are formed
         let mut responses: Vec<Vec<(usize, &Matrix6x3<f64>)>> = vec![Vec::new(); ndof / 6];
         for (d, yd) in ys.iter().enumerate() {
@@ -291,7 +354,7 @@ pub fn velocity_step(
         }
         let mut dmat = DMatrix::zeros(3 * n, 3 * n);
         let mut q = DVector::zeros(3 * n);
-        for (c, bc) in blocks.iter().enumerate() {
+        for (c, bc) in hblocks.as_ref().unwrap_or(&gblocks).iter().enumerate() {
             let mut qc = Vector3::zeros();
             for (b, g) in bc {
                 qc += g * v_free_c.fixed_rows::<6>(6 * b);

@@ -4,7 +4,7 @@
 //! activation loop is in `activation.rs`, the splitting of a step at an impact in
 //! `impact.rs`.
 
-use super::moreau_jean::{advance_poses, velocity_step, StepStart, VelocityStep};
+use super::moreau_jean::{advance_poses, velocity_step, ActiveAt, StepStart, VelocityStep};
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
 use super::projection::{inverse_mass, project, ContactRows, ProjectionOutcome};
@@ -318,14 +318,11 @@ impl Simulation {
         // over the last step (a journal sliding around its bore). Restitution on it pushed
         // the journal off the wall at every step, gaining energy at coarse steps (0.08 J of
         // 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting contact struck through
-        // another one has no approach at the step's start, so e changes nothing there. Plain
-        // Moreau–Jean keeps e: without a projection that push is all that holds a sliding
-        // journal off the wall it drifts into (it left a 10 mm bore at h = 1e-3 without it).
+        // another one has no approach at the step's start, so e changes nothing there.
         let settling = self.schedule.settling(self.state.t).is_some();
         let projected = self.params.scheme != Scheme::MoreauJean;
         let closed = |i: usize| {
-            projected
-                && !self.is_guard(i)
+            !self.is_guard(i)
                 && (self.impulses[i].x > 0.0
                     || (self.active.contains(&i)
                         && self.points[i].gap() <= self.params.activation_margin))
@@ -337,13 +334,37 @@ impl Simulation {
                 if settling && self.settle_frictionless[i] {
                     c.mu = 0.0;
                 }
-                if closed(i) && c.local_velocity(self.state.v.as_slice()).x < 0.0 {
+                if projected && closed(i) && c.local_velocity(self.state.v.as_slice()).x < 0.0 {
                     c.e = 0.0;
                 }
                 c
             })
             .collect();
         let refs: Vec<&ContactPoint> = points.iter().collect();
+        // Without a projection, the closed contacts act along their rows at mid-step and
+        // meet their velocity condition along those at the step's end, without restitution
+        // (`ActiveAt`): on start-of-step rows a journal sliding around its bore drifts into
+        // the wall, and nothing would take it out
+        let persistent: Vec<usize> = match projected {
+            true => Vec::new(),
+            false => (0..active.len())
+                .filter(|&k| closed(active[k]) && !points[k].gap_law)
+                .collect(),
+        };
+        let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
+            let candidates: Vec<Candidate> =
+                which.iter().map(|&k| self.candidates[active[k]]).collect();
+            let mut out = Vec::with_capacity(which.len());
+            self.model.evaluate_selected(poses, &candidates, &mut out);
+            for (c, &k) in out.iter_mut().zip(which) {
+                c.mu = points[k].mu;
+            }
+            out
+        };
+        let contacts = ActiveAt {
+            persistent,
+            at: &at,
+        };
         // a guard's index names a point relative to the current closest point, so its last
         // impulse belongs to another point: start it cold
         let warm: Vec<Vector3<f64>> = active
@@ -370,6 +391,7 @@ impl Simulation {
             &start,
             &refs,
             &warm,
+            Some(&contacts),
             (!joints.is_empty()).then_some(&rows_at as &dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>),
         )
     }
