@@ -92,9 +92,19 @@ fn indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], rows: &[usize]) -> (Vec<f64
         .map(|&r| (fa[r] - mean).powi(2) + (fb[r] - mean).powi(2))
         .sum::<f64>()
         / (2.0 * n - 1.0);
+    // Saltelli (2010) on the output less its mean: the same expectation, since
+    // E[f(AB_j) − f(A)] = 0, but a variance that no longer grows with mean² / var (a first
+    // impact time of 0.43 ± 0.012 s gave S = 1.17 with a 95 % interval [−7.2, 9.6] from 128
+    // base rows; centred, 1.02 in [0.79, 1.26])
     let first = fab
         .iter()
-        .map(|f| rows.iter().map(|&r| fb[r] * (f[r] - fa[r])).sum::<f64>() / n / var)
+        .map(|f| {
+            rows.iter()
+                .map(|&r| (fb[r] - mean) * (f[r] - fa[r]))
+                .sum::<f64>()
+                / n
+                / var
+        })
         .collect();
     let total = fab
         .iter()
