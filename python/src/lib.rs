@@ -27,9 +27,9 @@ fn error(e: impl std::fmt::Display) -> PyErr {
 }
 
 /// Runs `work` with the GIL released, on its own thread, while this one checks Python's
-/// signals every 20 ms until it ends: on Ctrl-C (or any signal whose Python handler raises) it sets
-/// `stop`, which the work polls to finish early and cleanly, and the exception is returned
-/// with the work's result.
+/// signals every 20 ms until it ends: on Ctrl-C (or any signal whose Python handler
+/// raises) it sets `stop`, which the work polls to finish early and cleanly, and the
+/// exception is returned with the work's result.
 fn interruptible<T: Send>(
     py: Python<'_>,
     stop: &AtomicBool,
