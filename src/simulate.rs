@@ -268,7 +268,7 @@ impl fmt::Display for SimulateReport {
                 st.max_joint_violation, st.max_joint_angle_violation
             )?;
         }
-        if self.scheme != Scheme::MoreauJean {
+        if self.scheme.projects() {
             writeln!(
                 f,
                 "projection       max {} iterations, max {} active-set passes, {} failures",

@@ -28,6 +28,12 @@ impl Scheme {
         }
     }
 
+    /// Whether the scheme projects positions onto the admissible set after the velocity
+    /// step (every scheme but plain Moreau–Jean).
+    pub fn projects(&self) -> bool {
+        *self != Scheme::MoreauJean
+    }
+
     pub fn parse(name: &str) -> Option<Scheme> {
         [
             Scheme::MoreauJean,

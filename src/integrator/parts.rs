@@ -4,7 +4,6 @@
 //! the step's mean force.
 
 use super::simulation::{Outcome, SimError, Simulation, StepReport};
-use super::Scheme;
 use nalgebra::Vector3;
 
 /// Halvings of one step at most: a step is never cut below 1/64 of its size.
@@ -136,7 +135,7 @@ impl Simulation {
     /// or the projection found no admissible position. A coarse step on a clearance joint
     /// (a journal swept around its bore, or across it) is one such; its halves are not.
     fn too_coarse(&self, trial: &Outcome) -> bool {
-        let projected = self.params.scheme != Scheme::MoreauJean;
+        let projected = self.params.scheme.projects();
         !trial.vs.solver.converged || (projected && !trial.report.projection.converged)
     }
 }

@@ -320,7 +320,7 @@ impl Simulation {
         // 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting contact struck through
         // another one has no approach at the step's start, so e changes nothing there.
         let settling = self.schedule.settling(self.state.t).is_some();
-        let projected = self.params.scheme != Scheme::MoreauJean;
+        let projected = self.params.scheme.projects();
         let closed = |i: usize| {
             !self.is_guard(i)
                 && (self.impulses[i].x > 0.0
@@ -451,7 +451,7 @@ impl Simulation {
         let s = &mut self.stats;
         s.solver_failures += u64::from(!report.solver.converged);
         s.newton_failures += u64::from(!report.newton_converged);
-        let projected = self.params.scheme != Scheme::MoreauJean;
+        let projected = self.params.scheme.projects();
         s.projection_failures += u64::from(projected && !report.projection.converged);
         s.max_solver_residual = s.max_solver_residual.max(report.solver.residual);
         s.max_active_contacts = s.max_active_contacts.max(report.active_contacts);

@@ -2,7 +2,7 @@
 //! summary) and `mc-study status` (done / missing / failed per shard).
 
 use super::manifest::{held_elsewhere, DirLock, Manifest, Ranges};
-use super::runner::{part_files, parts_dir, read_part, Shard};
+use super::runner::{part_files, read_part, shard_lock_path, Shard};
 use super::store::{self, Row, Table};
 use super::summary::Summary;
 use super::Study;
@@ -237,9 +237,7 @@ pub fn status(out: &Path, shards: Option<u64>) -> Result<StatusReport> {
             let missing = done.missing_in(a, b);
             ShardStatus {
                 shard,
-                running: held_elsewhere(
-                    &parts_dir(out).join(format!(".shard-{}.lock", shard.label())),
-                ),
+                running: held_elsewhere(&shard_lock_path(out, &shard.label())),
                 samples: b - a,
                 done: (b - a) - missing.count(),
                 failed: table

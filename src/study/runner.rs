@@ -260,9 +260,14 @@ impl Study {
     }
 }
 
+/// The lock file of the shard labelled `label` (`3of8`): held by the process running it.
+pub fn shard_lock_path(out: &Path, label: &str) -> PathBuf {
+    parts_dir(out).join(format!(".shard-{label}.lock"))
+}
+
 /// Claims the shard for this process (two processes never write the same part names).
 fn lock_shard(out: &Path, shard: Shard) -> Result<File> {
-    let p = parts_dir(out).join(format!(".shard-{}.lock", shard.label()));
+    let p = shard_lock_path(out, &shard.label());
     let f = lock_file(&p)?;
     match f.try_lock() {
         Ok(()) => Ok(f),
@@ -339,8 +344,7 @@ fn remove_orphans(out: &Path) -> Result<()> {
         else {
             continue;
         };
-        let lock = parts_dir(out).join(format!(".shard-{label}.lock"));
-        if tmp(&name) && !super::manifest::held_elsewhere(&lock) {
+        if tmp(&name) && !super::manifest::held_elsewhere(&shard_lock_path(out, label)) {
             std::fs::remove_file(&p).with_context(|| format!("removing {}", p.display()))?;
         }
     }

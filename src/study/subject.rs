@@ -61,7 +61,7 @@ fn suspicion(
             "bodies overlapped at the start (by {initial_overlap:.3e} m)"
         ));
     }
-    if params.scheme != crate::integrator::Scheme::MoreauJean {
+    if params.scheme.projects() {
         if st.max_penetration > allowed {
             why.push(format!(
                 "penetration beyond the scheme's tolerance ({:.3e} m > {allowed:.0e} m)",
