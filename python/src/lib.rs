@@ -2,7 +2,7 @@
 //! with no logic of its own. The Python package `mc_study` wraps these in its documented
 //! API (docs/python.md); the engine's errors become `McStudyError` with the same messages.
 
-use mc_study::scene::{declared_type, FunctionScene, Scene};
+use mc_study::commands::MAX_THREADS;
 use mc_study::simulate::{simulate as simulate_scene, SimulateOptions};
 use mc_study::study::merge::merge;
 use mc_study::study::runner::{self, RunOptions, Shard};
@@ -24,6 +24,16 @@ create_exception!(_native, McStudyError, PyException);
 /// Any engine error as a `McStudyError` carrying its message (file, line and field).
 fn error(e: impl std::fmt::Display) -> PyErr {
     McStudyError::new_err(e.to_string())
+}
+
+/// Refuses a thread count the command line would refuse (`--threads`).
+fn check_threads(threads: Option<usize>) -> PyResult<()> {
+    match threads {
+        Some(t) if !(1..=MAX_THREADS).contains(&t) => Err(error(format!(
+            "threads = {t}: give a number from 1 to {MAX_THREADS} (default: all cores)"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Runs `work` with the GIL released, on its own thread, while this one checks Python's
@@ -75,17 +85,13 @@ struct PyScene {
 impl PyScene {
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
-        let text = mc_study::input_file::read(&path)
-            .map_err(|e| error(format!("{}: {e}", path.display())))?;
         let source = path.display().to_string();
-        let kind = declared_type(&text, &source).map_err(error)?;
-        let subject = if kind.is_some_and(|k| k.value == "function") {
-            Subject::Function(FunctionScene::from_yaml(&text, &source).map_err(error)?)
-        } else {
-            // a mechanism resolves its relative paths against its own file
-            Subject::Mechanism(Box::new(Scene::load(&path).map_err(error)?))
-        };
-        Ok(PyScene { subject, source })
+        let text = mc_study::input_file::read(&path)
+            .map_err(|e| error(format!("{source}: cannot read the scene file: {e}")))?;
+        Ok(PyScene {
+            subject: Subject::from_yaml(&text, &source).map_err(error)?,
+            source,
+        })
     }
 
     #[staticmethod]
@@ -217,9 +223,7 @@ impl PyStudy {
         threads: Option<usize>,
         shard: Option<&str>,
     ) -> PyResult<(String, bool)> {
-        if threads.is_some_and(|t| !(1..=4096).contains(&t)) {
-            return Err(error("threads must be 1 to 4096"));
-        }
+        check_threads(threads)?;
         let out = out.unwrap_or_else(|| self.study.output_dir.clone());
         let mut opts = RunOptions::new(out.clone());
         opts.threads = threads;
@@ -308,9 +312,7 @@ fn evaluate<'py>(
             x.len() / 8
         )));
     }
-    if threads.is_some_and(|t| !(1..=4096).contains(&t)) {
-        return Err(error("threads must be 1 to 4096"));
-    }
+    check_threads(threads)?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
         pool = pool.num_threads(t);
