@@ -27,7 +27,10 @@ fn main() {
         }
     }
     for h in [1e-2, 5e-2] {
-        cases.push(extremes::coarse_clearance_pendulum(h));
+        cases.push(extremes::coarse_clearance_pendulum(h, true, 2.0));
+    }
+    for h in [5e-3, 2e-2] {
+        cases.push(extremes::coarse_clearance_pendulum(h, false, 5.0));
     }
     for n in [3, 5, 10] {
         cases.push(extremes::row_of_balls(n));

@@ -88,8 +88,18 @@ impl Simulation {
                 .filter(|&i| self.guard_ring[i].is_none())
                 .collect();
             let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
+            let trial = poses.clone();
             report.projection =
                 self.project_poses(&mut poses, &pool, &selected, ContactRows::Equality);
+            // Held shut together, the closed contacts may admit no poses near the trial (a
+            // tilted journal pressed on one flange and held at the other, 45 µm open, by
+            // the last step's impulse): then let every active contact open, g ≥ 0, which
+            // the start of the step satisfies.
+            if !report.projection.converged {
+                poses = trial;
+                report.projection =
+                    self.project_poses(&mut poses, &pool, &|_, _| true, ContactRows::Inequality);
+            }
             report.active_set_passes = pass;
             // activation from the end-of-step position
             let mut after = Vec::new();

@@ -7,7 +7,7 @@
 
 use super::moreau_jean::bilateral_matrix;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
-use crate::mechanics::{ContactPoint, Model, Pose};
+use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
 use nalgebra::{DMatrix, DVector, Matrix6, RowVector6, Vector6};
 
@@ -28,6 +28,43 @@ pub struct ProjectionOutcome {
     pub violation_before: f64,
     pub violation_after: f64,
     pub converged: bool,
+}
+
+/// How much farther than the start of the step a projection may land from the trial
+/// before it is taken for a distant solution rather than the nearest admissible poses
+/// (`Simulation::project_poses`). The start bounds the nearest poses exactly where it
+/// satisfies every projected row; the factor allows for rows that were open at the start.
+pub const PROJECTION_REACH: f64 = 2.0;
+
+/// Depth, in projection tolerances, to which a state counts as admissible. A projecting
+/// scheme holds contacts and joints to its tolerance; a run whose states end up farther
+/// off did not do what the scheme promises, and is `suspect`.
+pub const ADMISSIBLE_DEPTH: f64 = 10.0;
+
+/// The distance between two sets of poses in the mass metric, √(Δνᵀ M Δν), Δν each
+/// body's translation and body-frame rotation vector: the norm the projection minimises.
+pub fn mass_distance(model: &Model, a: &[Pose], b: &[Pose]) -> f64 {
+    let twice_kinetic: f64 = model
+        .bodies
+        .iter()
+        .zip(a.iter().zip(b))
+        .map(|(body, (a, b))| {
+            let rotation = (a.p.inverse() * b.p).scaled_axis();
+            2.0 * body.kinetic_energy(&(b.x - a.x), &rotation)
+        })
+        .sum();
+    twice_kinetic.sqrt()
+}
+
+/// `mass_distance` of moving every free body by `length`.
+pub fn mass_distance_of_length(model: &Model, length: f64) -> f64 {
+    let mass: f64 = model
+        .bodies
+        .iter()
+        .filter(|b| b.motion == Motion::Free)
+        .map(|b| b.mass)
+        .sum();
+    length * mass.sqrt()
 }
 
 /// Inverse mass matrix blocks (held dofs zero), the metric of the projection.

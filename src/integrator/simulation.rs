@@ -7,7 +7,10 @@
 use super::moreau_jean::{advance_poses, velocity_step, ActiveAt, StepStart, VelocityStep};
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
-use super::projection::{inverse_mass, project, ContactRows, ProjectionOutcome};
+use super::projection::{
+    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, ProjectionOutcome,
+    ADMISSIBLE_DEPTH, PROJECTION_REACH,
+};
 use super::schedule::Schedule;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::model::{Candidate, State};
@@ -416,7 +419,8 @@ impl Simulation {
                 .map(|(_, cp)| cp)
                 .collect()
         };
-        project(
+        let trial = poses.to_vec();
+        let mut outcome = project(
             model,
             &self.mask,
             &self.minv,
@@ -426,7 +430,24 @@ impl Simulation {
             mode,
             self.params.projection_tolerance,
             self.params.projection_max_iterations,
-        )
+        );
+        // Where the start of the step is admissible, the nearest admissible poses are no
+        // farther from the trial than it is. A projection that lands farther has found
+        // another solution of its equations, not the nearest one: a journal jammed between
+        // its flanges at a coarse step was thrown nine times the step's own motion, and
+        // the bar gained 0.17 J. The step is then taken in halves, as for a projection
+        // that found no solution.
+        let tolerance = self.params.projection_tolerance;
+        let admissible = (0..self.points.len())
+            .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);
+        if admissible
+            && mass_distance(model, &trial, poses)
+                > PROJECTION_REACH * mass_distance(model, &trial, &self.state.poses)
+                    + mass_distance_of_length(model, tolerance)
+        {
+            outcome.converged = false;
+        }
+        outcome
     }
 
     /// Advances one step of size h (the settle's step while settling), in parts where it

@@ -2,6 +2,7 @@
 //! analytic function scene. One sample = set the parameters, run, read the outputs.
 
 use super::Output;
+use crate::integrator::projection::ADMISSIBLE_DEPTH;
 use crate::probe_run::run_probes;
 use crate::scene::units::Dim;
 use crate::scene::{declared_type, FunctionScene, Scene, SceneError};
@@ -35,10 +36,6 @@ pub struct Outcome {
     pub suspect: Option<String>,
 }
 
-/// A projecting scheme holds contacts and joints to its projection tolerance; a run that
-/// ends up farther off than this many tolerances did not do what the scheme promises.
-const TOLERANCES_ALLOWED: f64 = 10.0;
-
 /// Why a run that finished is not to be trusted as it stands, if it is not: steps that did
 /// not converge, or (for a projecting scheme) penetration or joint violation beyond its
 /// tolerance, which includes bodies that overlapped at the start.
@@ -55,7 +52,7 @@ fn suspicion(
             st.steps
         ));
     }
-    let allowed = TOLERANCES_ALLOWED * params.projection_tolerance;
+    let allowed = ADMISSIBLE_DEPTH * params.projection_tolerance;
     if initial_overlap > allowed {
         why.push(format!(
             "bodies overlapped at the start (by {initial_overlap:.3e} m)"
