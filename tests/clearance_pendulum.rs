@@ -5,28 +5,15 @@
 
 mod common;
 
+use mc_study::extremes;
 use mc_study::integrator::{Scheme, Simulation};
-use mc_study::scene::Scene;
 
-/// The pendulum swinging in the xz plane about the y axis; `plane` adds the root key
-/// `plane: xz`. The flange radius is left to its default, which must clear the bore's
-/// radius plus the clearance (20 mm here, where 1.5 R_J is only 15 mm).
+/// The pendulum of the coarse-step extremes cells (`extremes::coarse_clearance_pendulum`),
+/// swinging about the y axis, in the xz plane if `planar`. Its flange radius is left to
+/// its default, which must clear the bore's radius plus the clearance (20 mm here, where
+/// 1.5 R_J is only 15 mm).
 fn pendulum(scheme: Scheme, h: f64, planar: bool) -> Simulation {
-    let yaml = format!(
-        "
-duration: 2 s
-{plane}
-integrator: {{ h: {h} }}
-bodies:
-  - {{ name: bar, mass: 1 kg, shape: {{ box: {{ size: [1 m, 20 mm, 20 mm] }} }}, position: [0.5 m, 0, 0] }}
-joints:
-  - {{ name: pivot, type: revolute-clearance, body_a: ground, body_b: bar, anchor: [0, 0, 0],
-      axis: [0, 1, 0], clearance: 10 mm, journal_radius: 10 mm, bore_length: 20 mm,
-      mu: 0, e: 0.5 }}
-",
-        plane = if planar { "plane: xz" } else { "" },
-    );
-    let mut scene = Scene::from_yaml(&yaml, "clearance-pendulum").unwrap_or_else(|e| panic!("{e}"));
+    let mut scene = extremes::coarse_clearance_pendulum(h, planar, 2.0).scene;
     scene.params.scheme = scheme;
     common::simulation(scene)
 }
