@@ -43,6 +43,8 @@ pub struct Snapshot {
 
 enum Item {
     Polygon(Vec<Vector2<f64>>, &'static str),
+    /// An open path (an open profile).
+    Polyline(Vec<Vector2<f64>>, &'static str),
     Circle(Vector2<f64>, f64, &'static str),
     Label(Vector2<f64>, String),
 }
@@ -155,6 +157,17 @@ fn shape_items(
             2e-4,
             style,
         )),
+        Primitive::Profile(profile) => {
+            let points = profile
+                .outline()
+                .map(|p| view.project(&pose.point(&p)))
+                .collect();
+            out.push(if profile.closed {
+                Item::Polygon(points, style)
+            } else {
+                Item::Polyline(points, style)
+            });
+        }
         // an unbounded half-space has no outline worth drawing in a mechanism view
         Primitive::Plane { .. } => {}
     }
@@ -215,7 +228,9 @@ pub fn svg(model: &Model, snapshots: &[Snapshot], view: View, title: &str) -> St
             hi = hi.sup(&(p + Vector2::repeat(r)));
         };
         match it {
-            Item::Polygon(pts, _) => pts.iter().for_each(|p| grow(*p, 0.0)),
+            Item::Polygon(pts, _) | Item::Polyline(pts, _) => {
+                pts.iter().for_each(|p| grow(*p, 0.0))
+            }
             Item::Circle(c, r, _) => grow(*c, *r),
             Item::Label(p, _) => grow(*p, 0.0),
         }
@@ -275,7 +290,7 @@ pub fn svg(model: &Model, snapshots: &[Snapshot], view: View, title: &str) -> St
         );
         for it in panel {
             match it {
-                Item::Polygon(pts, class) => {
+                Item::Polygon(pts, class) | Item::Polyline(pts, class) => {
                     let points: Vec<String> = pts
                         .iter()
                         .map(|p| {
@@ -283,9 +298,13 @@ pub fn svg(model: &Model, snapshots: &[Snapshot], view: View, title: &str) -> St
                             format!("{x:.4},{y:.4}")
                         })
                         .collect();
+                    let element = match it {
+                        Item::Polygon(..) => "polygon",
+                        _ => r#"polyline fill="none""#,
+                    };
                     let _ = writeln!(
                         s,
-                        r#"<polygon class="{class}" points="{}"/>"#,
+                        r#"<{element} class="{class}" points="{}"/>"#,
                         points.join(" ")
                     );
                 }

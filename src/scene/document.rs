@@ -1,7 +1,7 @@
 //! Parameter paths: every number of a scene document, addressed the way the document is
 //! written. List entries go by their `name` (by index where they have none), vector
 //! components by x, y, z (a quaternion's by w, x, y, z, longer lists and table cells by
-//! index): `joints.D.anchor.x`, `forces.0.spring.stiffness`,
+//! index, a profile point's by u, v): `joints.D.anchor.x`, `forces.0.spring.stiffness`,
 //! `bodies.hook.shape.box.size.y`, `integrator.h`, `settle.until`.
 //!
 //! A study (or `--set`) writes its values into the parsed document, which is then built
@@ -63,10 +63,11 @@ pub fn written(value: f64) -> Q {
     )
 }
 
-/// The names of a vector's components: x, y, z for three, w, x, y, z for four, else the
-/// indices.
+/// The names of a vector's components: u, v for two (a point of a profile's plane), x, y, z
+/// for three, w, x, y, z for four, else the indices.
 fn component_names(len: usize) -> Vec<String> {
     match len {
+        2 => ["u", "v"].map(String::from).to_vec(),
         3 => ["x", "y", "z"].map(String::from).to_vec(),
         4 => ["w", "x", "y", "z"].map(String::from).to_vec(),
         n => (0..n).map(|i| i.to_string()).collect(),
@@ -553,6 +554,48 @@ impl Node for PrimitiveSpec {
             PrimitiveSpec::Point { position } => v.node(
                 "point",
                 &mut With(|v: &mut dyn Visitor| v.required_vector("position", position, L)),
+            ),
+            PrimitiveSpec::Profile(p) => v.node("profile", p),
+        }
+    }
+}
+
+impl Node for ProfileSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        const L: Dim = Dim::LENGTH;
+        v.scalar("offset", &mut self.offset, L);
+        v.required("thickness", &mut self.thickness, L);
+        v.vector("start", &mut self.start, L, None);
+        v.list(
+            "path",
+            self.path
+                .value
+                .iter_mut()
+                .enumerate()
+                .map(|(i, piece)| (i.to_string(), &mut piece.value as &mut dyn Node))
+                .collect(),
+        );
+    }
+}
+
+impl Node for PieceSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        const L: Dim = Dim::LENGTH;
+        match self {
+            PieceSpec::Line(to) => v.required_vector("line", to, L),
+            PieceSpec::Arc { to, center, .. } => v.node(
+                "arc",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required_vector("to", to, L);
+                    v.required_vector("center", center, L);
+                }),
+            ),
+            PieceSpec::Circle { center, radius } => v.node(
+                "circle",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required_vector("center", center, L);
+                    v.required("radius", radius, L);
+                }),
             ),
         }
     }

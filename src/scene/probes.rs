@@ -451,7 +451,9 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
 
 /// Why a reduction of a measure depends on the step size, if it does: in a rigid model an
 /// impact is an impulse, so the peak of a force over steps that contain impacts grows as
-/// 1/h. Forces are impulsive wherever the scene has unilateral contacts.
+/// 1/h. Forces are impulsive wherever the scene has unilateral contacts. The minimum of a
+/// contact's normal force is exempt: that force is never negative, so an impulse can only
+/// raise it, and its minimum is the margin of a contact that must hold (a cam follower).
 fn caution(model: &Model, measure: &Measure, reduce: Reduce, field: &str) -> Option<String> {
     let unilateral = !model.contacts.is_empty()
         || !model.clearance_joints.is_empty()
@@ -460,7 +462,9 @@ fn caution(model: &Model, measure: &Measure, reduce: Reduce, field: &str) -> Opt
         measure,
         Measure::ContactForce(_) | Measure::Reaction { .. } | Measure::DriveEffort(_)
     );
-    (unilateral && force && matches!(reduce, Reduce::Max | Reduce::Min)).then(|| {
+    let normal_force_minimum = matches!(measure, Measure::ContactForce(_)) && reduce == Reduce::Min;
+    let peak = matches!(reduce, Reduce::Max | Reduce::Min) && !normal_force_minimum;
+    (unilateral && force && peak).then(|| {
         format!(
             "`{field}` takes the {} of a force in a mechanism with impacts: a rigid impact is an impulse, so the peak force grows as 1/h and this value depends on the step size. Converged alternatives: the largest impact impulse (`impulse:` with `reduce: max`) or the force's mean over a window (`reduce: mean`)",
             if reduce == Reduce::Max { "maximum" } else { "minimum" }

@@ -261,6 +261,41 @@ pub enum PrimitiveSpec {
     Point {
         position: Vector,
     },
+    Profile(ProfileSpec),
+}
+
+/// A planar profile of segments and arcs in a plane of the body, extruded along the
+/// plane's normal: `plane` `xy` (default), `yz` or `xz` names the body axes (u, v) its
+/// coordinates are along, and `offset` moves it along the normal (u × v).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileSpec {
+    pub plane: Option<Name>,
+    pub offset: Option<Q>,
+    pub thickness: Q,
+    /// The path's first point; not for a path that is one `circle`.
+    pub start: Option<Vector>,
+    pub path: Spanned<Vec<Spanned<PieceSpec>>>,
+    /// `inside` (default) or `outside` a closed profile; `left` or `right` of an open one.
+    pub solid: Option<Name>,
+}
+
+/// One piece of a profile path: `line: [u, v]` (to that point), or
+/// `arc: { to: [u, v], center: [u, v], direction: ccw | cw }` (default ccw); or, as the
+/// whole path, `circle: { center: [u, v], radius }` (a round cam, a hole).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+pub enum PieceSpec {
+    Line(Vector),
+    Arc {
+        to: Vector,
+        center: Vector,
+        direction: Option<Name>,
+    },
+    Circle {
+        center: Vector,
+        radius: Q,
+    },
 }
 
 /// A force element: exactly one of `spring`, `torsional_spring`, `load`, with an optional

@@ -1,14 +1,16 @@
-//! Contact pairs: the primitive shapes (sphere, plane, box, cylinder, capsule, point) on
-//! two bodies, with their friction and restitution.
+//! Contact pairs: the primitive shapes (sphere, plane, box, cylinder, capsule, point,
+//! profile) on two bodies, with their friction and restitution.
 
 use super::error::{line, SceneError};
 use super::fields::{
-    body_ref, non_negative, opt_vec3, orientation, positive, restitution, unit_vec3, vec3, R,
+    body_ref, non_negative, opt_vec3, orientation, positive, restitution, scalar, unit_vec3,
+    values, vec3, R,
 };
-use super::schema::{ContactSpec, PrimitiveSpec, Vector};
+use super::schema::{ContactSpec, PieceSpec, PrimitiveSpec, ProfileSpec, Vector};
 use super::units::Dim;
+use crate::mechanics::contact::profile::{Piece as ProfilePiece, Profile, Solid};
 use crate::mechanics::{ContactPair, Model, Primitive};
-use nalgebra::{UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use serde_saphyr::Spanned;
 
 /// Contact pair `i`.
@@ -107,5 +109,128 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str) -> R<Primitive> {
         PrimitiveSpec::Point { position } => Primitive::Point {
             position: vec3(position, Dim::LENGTH, &fl("point.position"))?,
         },
+        PrimitiveSpec::Profile(spec) => {
+            Primitive::Profile(Box::new(profile(spec, line(p), &fl("profile"))?))
+        }
+    })
+}
+
+/// A point of a profile's plane.
+fn point2(v: &Vector, field: &str) -> R<Vector2<f64>> {
+    let x = values(v, Dim::LENGTH, field, 2)?;
+    Ok(Vector2::new(x[0], x[1]))
+}
+
+fn profile(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<Profile> {
+    let fl = |s: &str| format!("{field}.{s}");
+    let axes = match p.plane.as_ref().map(|n| n.value.as_str()) {
+        None | Some("xy") => [Vector3::x(), Vector3::y(), Vector3::z()],
+        Some("yz") => [Vector3::y(), Vector3::z(), Vector3::x()],
+        Some("xz") => [Vector3::x(), Vector3::z(), -Vector3::y()],
+        Some(other) => {
+            return Err(SceneError::at(
+                p.plane.as_ref().and_then(line),
+                fl("plane"),
+                format!("unknown plane `{other}` (expected xy, yz or xz)"),
+            ))
+        }
+    };
+    let offset = p
+        .offset
+        .as_ref()
+        .map_or(Ok(0.0), |q| scalar(q, Dim::LENGTH, &fl("offset")))?;
+    let thickness = positive(&p.thickness, Dim::LENGTH, &fl("thickness"))?;
+    let circle = |i: usize| matches!(p.path.value[i].value, PieceSpec::Circle { .. });
+    let start = match (&p.start, p.path.value.len()) {
+        (None, 1) if circle(0) => None,
+        (Some(s), _) if !(0..p.path.value.len()).any(circle) => Some(point2(s, &fl("start"))?),
+        (Some(s), _) => {
+            return Err(SceneError::at(
+                line(s),
+                fl("start"),
+                "a path that is one `circle` has no `start`",
+            ))
+        }
+        (None, _) => {
+            return Err(SceneError::at(
+                at,
+                fl("start"),
+                "needed: the path's first point (only a path that is one `circle` has none)",
+            ))
+        }
+    };
+    if let Some(i) = (0..p.path.value.len())
+        .find(|&i| circle(i))
+        .filter(|_| p.path.value.len() > 1)
+    {
+        return Err(SceneError::at(
+            line(&p.path.value[i]),
+            fl(&format!("path[{i}]")),
+            "a `circle` is a whole path: it cannot be joined to other pieces",
+        ));
+    }
+    let mut pieces = Vec::with_capacity(p.path.value.len());
+    let mut start_point = start.unwrap_or_default();
+    for (i, piece) in p.path.value.iter().enumerate() {
+        let fi = |s: &str| fl(&format!("path[{i}].{s}"));
+        pieces.push(match &piece.value {
+            PieceSpec::Circle { center, radius } => {
+                let center = point2(center, &fi("circle.center"))?;
+                start_point =
+                    center + Vector2::x() * positive(radius, Dim::LENGTH, &fi("circle.radius"))?;
+                ProfilePiece::Arc {
+                    to: start_point,
+                    center,
+                    ccw: true,
+                }
+            }
+            PieceSpec::Line(to) => ProfilePiece::Line {
+                to: point2(to, &fi("line"))?,
+            },
+            PieceSpec::Arc {
+                to,
+                center,
+                direction,
+            } => ProfilePiece::Arc {
+                to: point2(to, &fi("arc.to"))?,
+                center: point2(center, &fi("arc.center"))?,
+                ccw: match direction.as_ref().map(|d| d.value.as_str()) {
+                    None | Some("ccw") => true,
+                    Some("cw") => false,
+                    Some(other) => {
+                        return Err(SceneError::at(
+                            direction.as_ref().and_then(line),
+                            fi("arc.direction"),
+                            format!("unknown direction `{other}` (expected ccw or cw)"),
+                        ))
+                    }
+                },
+            },
+        });
+    }
+    let solid = match p.solid.as_ref().map(|n| n.value.as_str()) {
+        None | Some("inside") => Solid::Inside,
+        Some("outside") => Solid::Outside,
+        Some("left") => Solid::Left,
+        Some("right") => Solid::Right,
+        Some(other) => {
+            return Err(SceneError::at(
+                p.solid.as_ref().and_then(line),
+                fl("solid"),
+                format!("unknown side `{other}` (expected inside, outside, left or right)"),
+            ))
+        }
+    };
+    Profile::new(
+        axes[2] * offset,
+        axes,
+        thickness,
+        start_point,
+        &pieces,
+        solid,
+    )
+    .map_err(|(piece, message)| match piece {
+        Some(i) => SceneError::at(line(&p.path.value[i]), fl(&format!("path[{i}]")), message),
+        None => SceneError::at(at, field.to_string(), message),
     })
 }

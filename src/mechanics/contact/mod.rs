@@ -5,6 +5,7 @@
 
 pub mod clearance;
 pub mod primitives;
+pub mod profile;
 
 pub use primitives::{ContactGeometry, Primitive};
 
@@ -121,6 +122,7 @@ impl ContactPair {
             Primitive::Box { .. } => {
                 matches!(other, Primitive::Sphere { .. } | Primitive::Point { .. })
             }
+            Primitive::Profile(_) => !matches!(other, Primitive::Profile(_)),
             _ => false,
         };
         let (body1, shape1, body2, shape2) = if goes_second(&shape1, &shape2) {
@@ -136,6 +138,10 @@ impl ContactPair {
                     Primitive::Box { .. }
                 )
                 | (
+                    Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Cylinder { .. },
+                    Primitive::Profile(_)
+                )
+                | (
                     Primitive::Sphere { .. }
                         | Primitive::Box { .. }
                         | Primitive::Cylinder { .. }
@@ -146,7 +152,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere or point against a box; sphere against sphere)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere or point against a box; sphere against sphere; point, sphere or cylinder against a profile)",
                 shape1.kind(),
                 shape2.kind()
             ));
@@ -167,23 +173,32 @@ impl ContactPair {
 
     /// Number of candidate points this pair expands into.
     pub fn candidates(&self) -> usize {
-        self.shape1.candidate_count()
+        match &self.shape2 {
+            Primitive::Profile(p) => p.candidate_count(self.shape1.pin_faces()),
+            _ => self.shape1.candidate_count(),
+        }
     }
 
     /// Geometry and Jacobian of candidate `k` at the given body poses.
     pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
         let p1 = self.body1.map_or(Pose::identity(), |i| poses[i]);
         let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
+        let (f1, f2) = (BodyFrame::new(p1), BodyFrame::new(p2));
+        if let Primitive::Profile(profile) = &self.shape2 {
+            let c = profile.contact(&p2, &profile::Pin::of(&self.shape1, &p1), k);
+            let mut point = ContactPoint::new(
+                c.geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
+            );
+            point.lateral = c.lateral.map(|(dir, at, kappa)| Lateral {
+                g1: point_row(&dir, &f1, &at),
+                g2: -point_row(&dir, &f2, &at),
+                kappa,
+            });
+            return point;
+        }
         let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
         ContactPoint::new(
-            geometry,
-            self.body1,
-            &BodyFrame::new(p1),
-            self.body2,
-            &BodyFrame::new(p2),
-            None,
-            self.mu,
-            self.e,
+            geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
         )
     }
 }

@@ -2,6 +2,7 @@
 //! frame; `closest` returns the gap, the inertial normal (from body 2 towards body 1) and
 //! the two contact points for one candidate index.
 
+use super::profile::{Pin, Profile};
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -40,6 +41,9 @@ pub enum Primitive {
     Point {
         position: Vector3<f64>,
     },
+    /// A planar profile of segments and arcs, extruded (`profile.rs`); pins (points,
+    /// spheres, cylinders) meet it.
+    Profile(Box<Profile>),
 }
 
 impl Primitive {
@@ -51,6 +55,16 @@ impl Primitive {
             Primitive::Cylinder { .. } => "cylinder",
             Primitive::Capsule { .. } => "capsule",
             Primitive::Point { .. } => "point",
+            Primitive::Profile(_) => "profile",
+        }
+    }
+
+    /// The contact planes of this shape as a pin against a profile: a cylinder touches
+    /// with its sections in the profile's two faces, a point or sphere with its centre's.
+    pub(crate) fn pin_faces(&self) -> usize {
+        match self {
+            Primitive::Cylinder { .. } => 2,
+            _ => 1,
         }
     }
 
@@ -223,11 +237,14 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     };
                     point_plane(end + w * *radius, pp, n, 0.0)
                 }
-                Primitive::Plane { .. } => {
-                    unreachable!("plane–plane pairs are rejected by ContactPair::new")
+                Primitive::Plane { .. } | Primitive::Profile(_) => {
+                    unreachable!(
+                        "plane–plane and profile–plane pairs are rejected by ContactPair::new"
+                    )
                 }
             }
         }
+        (pin, Primitive::Profile(profile)) => profile.contact(p2, &Pin::of(pin, p1), k).geometry,
         _ => unreachable!("unsupported pairs are rejected by ContactPair::new"),
     }
 }

@@ -1,0 +1,126 @@
+//! Cost of one contact evaluation (closest points, frame and Jacobian blocks) for each
+//! pair type against the analytic sphere–box, and the time per step of a scene that uses
+//! a profile (`studies/cam-follower`). Run: `cargo bench --bench geometry`.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use mc_study::mechanics::contact::profile::{Piece, Profile, Solid};
+use mc_study::mechanics::{ContactPair, Pose, Primitive};
+use mc_study::scene::Scene;
+use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use std::hint::black_box;
+use std::path::Path;
+
+/// A latch-like profile: a flat, a fillet, a flank, a concave notch and two flats (6
+/// pieces, 4 convex corners: 10 features).
+fn latch() -> Primitive {
+    let v = Vector2::new;
+    let pieces = [
+        Piece::Line { to: v(0.04, 0.0) },
+        Piece::Arc {
+            to: v(0.05, 0.01),
+            center: v(0.04, 0.01),
+            ccw: true,
+        },
+        Piece::Line { to: v(0.05, 0.03) },
+        Piece::Arc {
+            to: v(0.03, 0.03),
+            center: v(0.04, 0.04),
+            ccw: false,
+        },
+        Piece::Line { to: v(0.0, 0.03) },
+        Piece::Line { to: v(0.0, 0.0) },
+    ];
+    let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
+    Primitive::Profile(Box::new(
+        Profile::new(
+            Vector3::zeros(),
+            axes,
+            0.01,
+            v(0.0, 0.0),
+            &pieces,
+            Solid::Inside,
+        )
+        .unwrap(),
+    ))
+}
+
+fn evaluations(c: &mut Criterion) {
+    let sphere = Primitive::Sphere {
+        center: Vector3::zeros(),
+        radius: 0.005,
+    };
+    let cylinder = Primitive::Cylinder {
+        center: Vector3::zeros(),
+        axis: Vector3::z(),
+        radius: 0.005,
+        half_length: 0.01,
+    };
+    let boxed = Primitive::Box {
+        center: Vector3::zeros(),
+        rotation: UnitQuaternion::identity(),
+        half_extents: Vector3::new(0.02, 0.015, 0.005),
+    };
+    let plane = Primitive::Plane {
+        point: Vector3::zeros(),
+        normal: Vector3::z(),
+    };
+    let poses = [
+        Pose {
+            x: Vector3::new(0.045, 0.036, 0.001),
+            p: UnitQuaternion::from_euler_angles(0.01, -0.02, 0.3),
+        },
+        Pose {
+            x: Vector3::new(0.002, -0.001, 0.0),
+            p: UnitQuaternion::from_euler_angles(0.0, 0.0, 0.1),
+        },
+    ];
+    let pairs = [
+        ("sphere-box", sphere.clone(), boxed),
+        ("sphere-plane", sphere.clone(), plane),
+        ("sphere-profile", sphere, latch()),
+        ("cylinder-profile", cylinder, latch()),
+    ];
+    let mut g = c.benchmark_group("contact evaluation (all candidates of the pair)");
+    for (name, s1, s2) in pairs {
+        let pair = ContactPair::new(name, Some(0), s1, Some(1), s2, 0.2, 0.0).unwrap();
+        let n = pair.candidates();
+        g.bench_function(format!("{name} ({n} candidates)"), |b| {
+            b.iter(|| {
+                let mut gap = f64::MAX;
+                for k in 0..n {
+                    gap = gap.min(pair.evaluate(k, black_box(&poses)).gap());
+                }
+                black_box(gap)
+            })
+        });
+    }
+    g.finish();
+}
+
+fn cam_follower_steps(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/cam-follower/scene.yaml");
+    let scene = Scene::load(&path).unwrap();
+    let mut g = c.benchmark_group("cam-follower");
+    g.sample_size(10);
+    g.bench_function("step (roller on the cam, 2 candidates)", |b| {
+        b.iter_batched(
+            || {
+                let mut sim = scene.simulation().unwrap();
+                // past the drop: the roller rides the cam
+                sim.run_until(0.1, |_, _| {}).unwrap();
+                sim
+            },
+            |mut sim| {
+                for _ in 0..100 {
+                    sim.step().unwrap();
+                }
+                black_box(sim.state.t)
+            },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, evaluations, cam_follower_steps);
+criterion_main!(benches);

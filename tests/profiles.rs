@@ -1,0 +1,278 @@
+//! Profiles in mechanisms: a roller follower on an eccentric cam against the analytic cam
+//! law and its jump-off speed, a pin carried across a slot by a reversing load, and scene
+//! errors that name the piece.
+
+use mc_study::integrator::Simulation;
+use mc_study::scene::Scene;
+use mc_study::study::Subject;
+use nalgebra::Vector3;
+
+const G: f64 = 9.81;
+/// Cam eccentricity, cam radius, roller radius (m).
+const E: f64 = 0.01;
+const R: f64 = 0.03;
+const ROLLER: f64 = 0.01;
+
+/// Follower lift (height of the roller centre) against cam angle θ: the roller centre stays
+/// R + r from the cam centre (e cos θ, e sin θ).
+fn lift(theta: f64) -> f64 {
+    let (s, c) = theta.sin_cos();
+    E * s + ((R + ROLLER).powi(2) - (E * c).powi(2)).sqrt()
+}
+
+/// d²y/dθ² of the lift, by central differences of the closed form.
+fn lift_curvature(theta: f64) -> f64 {
+    let d = 1e-4;
+    (lift(theta + d) - 2.0 * lift(theta) + lift(theta - d)) / (d * d)
+}
+
+/// A cam turning about the world z axis at `omega`, a roller follower on a vertical
+/// prismatic joint above it, held down by gravity alone; one revolution.
+fn cam_follower(omega: f64) -> Scene {
+    let y0 = lift(0.0);
+    let yaml = format!(
+        r#"
+name: cam-follower
+duration: {duration}
+gravity: [0, -9.81, 0]
+integrator: {{ h: 0.5 ms, scheme: combined-projection }}
+bodies:
+  - name: cam
+    mass: 1
+    shape: {{ cylinder: {{ radius: {R}, length: 0.01 }} }}
+  - name: follower
+    mass: 0.1
+    shape: {{ cylinder: {{ radius: {ROLLER}, length: 0.01 }} }}
+    position: [0, {y0}, 0]
+    velocity: [0, {v0}, 0]
+joints:
+  - {{ name: shaft, type: revolute, body_a: ground, body_b: cam, anchor: [0, 0, 0], axis: [0, 0, 1], drive: {{ velocity: {omega} }} }}
+  - {{ name: guide, type: prismatic, body_a: ground, body_b: follower, anchor: [0, {y0}, 0], axis: [0, 1, 0] }}
+contacts:
+  - name: roller
+    body: follower
+    shape: {{ cylinder: {{ radius: {ROLLER}, length: 0.01, axis: [0, 0, 1] }} }}
+    against: cam
+    against_shape:
+      profile:
+        thickness: 0.01
+        start: [{start}, 0]
+        path:
+          - arc: {{ to: [{start}, 0], center: [{E}, 0] }}
+"#,
+        duration = std::f64::consts::TAU / omega,
+        v0 = omega * E,
+        start = E + R,
+    );
+    Scene::from_yaml(&yaml, "cam-follower").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Cam angle (from its body x axis) and follower height.
+fn cam_angle_and_lift(sim: &Simulation) -> (f64, f64) {
+    let x = sim.state.poses[0].p * Vector3::x();
+    (x.y.atan2(x.x), sim.state.poses[1].x.y)
+}
+
+/// The largest distance of the follower above the cam law over one revolution.
+fn largest_lift_error(omega: f64) -> (f64, f64) {
+    let mut sim = cam_follower(omega).simulation().unwrap();
+    let (mut above, mut below) = (0.0f64, 0.0f64);
+    let end = std::f64::consts::TAU / omega;
+    sim.run_until(end, |s, _| {
+        let (theta, y) = cam_angle_and_lift(s);
+        let err = y - lift(theta);
+        above = above.max(err);
+        below = below.min(err);
+    })
+    .unwrap();
+    assert_eq!(sim.stats.projection_failures, 0);
+    eprintln!(
+        "omega {omega}: {below:e} … {above:e}, steps {}",
+        sim.stats.steps
+    );
+    (above, below)
+}
+
+/// At low speed the roller follows the cam law to 1e-6 of the stroke over a revolution.
+#[test]
+fn a_roller_follower_lifts_by_the_cam_law() {
+    let (above, below) = largest_lift_error(1.0);
+    let stroke = 2.0 * E;
+    assert!(
+        above.max(-below) < 1e-6 * stroke,
+        "lift error {below:e} … {above:e} m"
+    );
+}
+
+/// The roller leaves the cam where the contact force m (g + ω² y''(θ)), predicted from the
+/// analytic lift, would turn negative: it stays on at 0.97 of that speed and jumps at 1.03.
+#[test]
+fn the_follower_jumps_off_where_the_predicted_contact_force_reaches_zero() {
+    let steepest = (0..3600)
+        .map(|k| -lift_curvature(k as f64 / 3600.0 * std::f64::consts::TAU))
+        .fold(f64::MIN, f64::max);
+    let critical = (G / steepest).sqrt();
+    let (above, _) = largest_lift_error(0.97 * critical);
+    assert!(
+        above < 1e-9,
+        "left the cam below the critical speed: {above:e} m"
+    );
+    let (above, _) = largest_lift_error(1.03 * critical);
+    assert!(
+        above > 1e-5,
+        "stayed on above the critical speed: {above:e} m"
+    );
+}
+
+/// A pin of radius 5 mm with 0.1 mm of radial clearance in a slot cut in the frame (a hole
+/// profile: two flats and two half circles), sliding along it while a sideways load
+/// reverses: it rests on one flank, then crosses to the other, and never enters either.
+#[test]
+fn a_pin_in_a_slot_changes_flank_when_the_load_reverses() {
+    let (r, c) = (0.005, 1e-4);
+    let w = r + c;
+    let yaml = format!(
+        r#"
+name: pin-in-slot
+duration: 0.5
+plane: xy
+gravity: [0, 0, 0]
+integrator: {{ h: 1 ms, scheme: combined-projection }}
+bodies:
+  - name: pin
+    mass: 0.1
+    shape: {{ cylinder: {{ radius: {r}, length: 0.01 }} }}
+    position: [0.05, 0, 0]
+    velocity: [0.1, 0, 0]
+forces:
+  - load: {{ body: pin, force_table: [[0, 0, -1, 0], [0.2, 0, -1, 0], [0.2001, 0, 1, 0], [1, 0, 1, 0]] }}
+contacts:
+  - name: slot
+    body: pin
+    shape: {{ cylinder: {{ radius: {r}, length: 0.01 }} }}
+    e: 0.5
+    against_shape:
+      profile:
+        thickness: 0.01
+        solid: outside
+        start: [0, -{w}]
+        path:
+          - line: [0.2, -{w}]
+          - arc: {{ to: [0.2, {w}], center: [0.2, 0] }}
+          - line: [0, {w}]
+          - arc: {{ to: [0, -{w}], center: [0, 0] }}
+"#
+    );
+    let scene = Scene::from_yaml(&yaml, "pin-in-slot").unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = scene.simulation().unwrap();
+    sim.run_until(0.19, |_, _| {}).unwrap();
+    let y = sim.state.poses[0].x.y;
+    assert!((y + c).abs() < 1e-10, "on the lower flank: y = {y:e}");
+    sim.run_until(0.5, |_, _| {}).unwrap();
+    let y = sim.state.poses[0].x.y;
+    assert!((y - c).abs() < 1e-10, "on the upper flank: y = {y:e}");
+    assert!((sim.state.poses[0].x.x - 0.1).abs() < 1e-9);
+    eprintln!("slot: y {y:e}, penetration {:e}", sim.stats.max_penetration);
+    assert!(
+        sim.stats.max_penetration <= 1e-10,
+        "{:e}",
+        sim.stats.max_penetration
+    );
+    assert_eq!(sim.stats.projection_failures, 0);
+}
+
+/// A profile's errors name the file, the line and the field of the piece at fault.
+#[test]
+fn bad_profiles_are_refused_with_the_piece_and_line() {
+    let scene = |path: &str, extra: &str| {
+        format!(
+            "name: bad\nduration: 1\nbodies:\n  - {{ name: pin, mass: 1, inertia: [1, 1, 1] }}\ncontacts:\n  - body: pin\n    shape: {{ point: {{ position: [0, 0, 0] }} }}\n    against_shape:\n      profile:\n        thickness: 0.01\n{extra}        start: [0, 0]\n        path:\n{path}"
+        )
+    };
+    let cases = [
+        (
+            scene(
+                "          - line: [1, 0]\n          - line: [1, 0]\n",
+                "        solid: left\n",
+            ),
+            15,
+            "path[1]",
+            "zero-length segment",
+        ),
+        (
+            scene(
+                "          - arc: { to: [2, 0], center: [1.2, 0.5] }\n",
+                "        solid: left\n",
+            ),
+            14,
+            "path[0]",
+            "inconsistent radius",
+        ),
+        (
+            scene("          - line: [1, 0]\n", ""),
+            9,
+            "profile",
+            "closed profile",
+        ),
+        (
+            scene(
+                "          - arc: { to: [1, 0], center: [0, 1], direction: up }\n",
+                "        solid: left\n",
+            ),
+            14,
+            "arc.direction",
+            "expected ccw or cw",
+        ),
+        (
+            scene("          - line: [1, 0, 0]\n", "        solid: left\n"),
+            14,
+            "path[0].line",
+            "2 components",
+        ),
+    ];
+    for (yaml, line, field, message) in cases {
+        let e = Scene::from_yaml(&yaml, "bad.yaml").expect_err(&yaml);
+        assert_eq!(e.line, Some(line), "{e}");
+        assert!(e.field.contains(field), "{e}");
+        assert!(e.message.contains(message), "{e}");
+        assert!(e.to_string().contains("bad.yaml"), "{e}");
+    }
+}
+
+/// The bundled cam study: its outputs are the cam law's stroke and the margin of the
+/// roller's contact force, m (g + ω² y''), whose minimum is not cautioned (a normal force
+/// an impact can only raise), while its maximum is.
+#[test]
+fn the_bundled_cam_reads_the_stroke_and_the_force_margin_of_the_cam_law() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/cam-follower/scene.yaml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let scene = Scene::from_yaml(&text, "cam-follower").unwrap();
+    let probe = |name: &str| scene.probes.iter().find(|p| p.name == name).unwrap();
+    assert!(probe("roller_min_force").caution.is_none());
+    let peak = text.replace("reduce: min", "reduce: max");
+    let peaked = Scene::from_yaml(&peak, "cam-follower").unwrap();
+    assert!(peaked.probes.iter().any(|p| p.caution.is_some()));
+
+    let subject = Subject::from_yaml(&text, "cam-follower").unwrap();
+    let n = subject.outputs().len();
+    let o = subject.run(&[], &(0..n).collect::<Vec<_>>());
+    assert!(o.error.is_none(), "{:?}", o.error);
+    // written 39.3 mm up; the top of the cam law is e + R + r = 50 mm, which the steps
+    // (h = 0.2 ms) sample to within ½ e (ω h)² = 1.5e-7 m
+    let omega: f64 = 27.8;
+    let stroke = o.outputs[0];
+    assert!((stroke - (0.05 - 0.0393)).abs() < 2e-7, "{stroke}");
+    // the force margin over the top: the analytic lift's smallest m (g + ω² y'')
+    let margin = (0..36000)
+        .map(|k| {
+            0.1 * (G + omega * omega * lift_curvature(k as f64 / 36000.0 * std::f64::consts::TAU))
+        })
+        .fold(f64::MAX, f64::min);
+    let min_force = o.outputs[1];
+    eprintln!("stroke {stroke}, min force {min_force} N against {margin} N");
+    assert!(
+        (min_force - margin).abs() < 1e-5,
+        "{min_force} against {margin}"
+    );
+}
