@@ -1,8 +1,11 @@
-//! Cost of one contact evaluation (closest points, frame and Jacobian blocks) for each
-//! pair type against the analytic sphere–box, and the time per step of a scene that uses
-//! a profile (`studies/cam-follower`). Run: `cargo bench --bench geometry`.
+//! Cost of evaluating every candidate of a contact pair (closest points, frame and
+//! Jacobian blocks) for each pair type, against the analytic sphere–box, and the time per
+//! step of a scene that uses a profile (`studies/cam-follower`).
+//! Run: `cargo bench --bench geometry`.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use mc_study::mechanics::contact::convex::ConvexPart;
+use mc_study::mechanics::contact::mesh::MeshPart;
 use mc_study::mechanics::contact::profile::{Piece, Profile, Solid};
 use mc_study::mechanics::{ContactPair, Pose, Primitive};
 use mc_study::scene::Scene;
@@ -44,6 +47,40 @@ fn latch() -> Primitive {
     ))
 }
 
+/// A box's corners as a convex part.
+fn convex_box() -> Primitive {
+    let corners: Vec<Vector3<f64>> = (0..8)
+        .map(|k| {
+            let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
+            Vector3::new(s(1, 0.02), s(2, 0.015), s(4, 0.005))
+        })
+        .collect();
+    Primitive::Convex(Box::new(ConvexPart::new(&corners, true).unwrap()))
+}
+
+/// A floor of 20 × 20 squares (800 triangles) at z = 0.
+fn mesh_floor() -> Primitive {
+    let n = 21;
+    let vertices: Vec<Vector3<f64>> = (0..n * n)
+        .map(|k| {
+            Vector3::new(
+                0.01 * (k % n) as f64 - 0.1,
+                0.01 * (k / n) as f64 - 0.1,
+                0.0,
+            )
+        })
+        .collect();
+    let mut triangles = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = |i: usize, j: usize| i + n * j;
+            triangles.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            triangles.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+        }
+    }
+    Primitive::Mesh(Box::new(MeshPart::new(vertices, triangles).unwrap()))
+}
+
 fn evaluations(c: &mut Criterion) {
     let sphere = Primitive::Sphere {
         center: Vector3::zeros(),
@@ -76,9 +113,14 @@ fn evaluations(c: &mut Criterion) {
     ];
     let pairs = [
         ("sphere-box", sphere.clone(), boxed),
-        ("sphere-plane", sphere.clone(), plane),
-        ("sphere-profile", sphere, latch()),
+        ("sphere-plane", sphere.clone(), plane.clone()),
+        ("sphere-profile", sphere.clone(), latch()),
         ("cylinder-profile", cylinder, latch()),
+        ("convex-plane", convex_box(), plane.clone()),
+        ("sphere-convex", sphere.clone(), convex_box()),
+        ("convex-convex", convex_box(), convex_box()),
+        ("sphere-mesh", sphere.clone(), mesh_floor()),
+        ("convex-mesh", convex_box(), mesh_floor()),
     ];
     let mut g = c.benchmark_group("contact evaluation (all candidates of the pair)");
     for (name, s1, s2) in pairs {

@@ -168,6 +168,21 @@ fn shape_items(
                 Item::Polyline(points, style)
             });
         }
+        Primitive::Convex(c) => out.push(Item::Polygon(
+            hull(
+                c.vertices
+                    .iter()
+                    .map(|v| view.project(&pose.point(v)))
+                    .collect(),
+            ),
+            style,
+        )),
+        Primitive::Mesh(m) => {
+            for t in &m.triangles {
+                let corners = t.iter().map(|&i| view.project(&pose.point(&m.vertices[i])));
+                out.push(Item::Polygon(corners.collect(), style));
+            }
+        }
         // an unbounded half-space has no outline worth drawing in a mechanism view
         Primitive::Plane { .. } => {}
     }

@@ -57,7 +57,7 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         super::bodies::hold_to_plane(&mut model, plane, &spec.bodies)?;
     }
     for (i, c) in spec.contacts.iter().enumerate() {
-        let pair = super::shapes::contact(&model, c, i)?;
+        let pair = super::shapes::contact(&model, c, i, file)?;
         model.contacts.push(pair);
     }
     for (i, fs) in spec.forces.iter().enumerate() {

@@ -556,6 +556,23 @@ impl Node for PrimitiveSpec {
                 &mut With(|v: &mut dyn Visitor| v.required_vector("position", position, L)),
             ),
             PrimitiveSpec::Profile(p) => v.node("profile", p),
+            PrimitiveSpec::Convex {
+                vertices,
+                file,
+                scale,
+            } => v.node(
+                "convex",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.table("vertices", vertices, &[L, L, L]);
+                    if file.is_some() {
+                        v.scalar("scale", scale, L);
+                    }
+                }),
+            ),
+            PrimitiveSpec::Mesh { scale, .. } => v.node(
+                "mesh",
+                &mut With(|v: &mut dyn Visitor| v.required("scale", scale, L)),
+            ),
         }
     }
 }

@@ -12,6 +12,7 @@ mod forces;
 pub mod function;
 mod integrator;
 mod joints;
+mod mesh_file;
 mod phases;
 mod probes;
 pub mod schema;

@@ -262,6 +262,20 @@ pub enum PrimitiveSpec {
         position: Vector,
     },
     Profile(ProfileSpec),
+    /// A convex polyhedron: the hull of `vertices` (rows [x, y, z], body frame), which must
+    /// all be its vertices, or of the mesh in `file` (STL or OBJ, relative to the scene),
+    /// which must be convex; `scale` is the length of one file unit (`1 mm`).
+    Convex {
+        vertices: Option<Spanned<Vec<Vec<Quantity>>>>,
+        file: Option<Name>,
+        scale: Option<Q>,
+    },
+    /// A triangle mesh from `file` (STL or OBJ, relative to the scene), for a fixed part;
+    /// `scale` as for `convex`.
+    Mesh {
+        file: Name,
+        scale: Q,
+    },
 }
 
 /// A planar profile of segments and arcs in a plane of the body, extruded along the

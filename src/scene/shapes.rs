@@ -6,15 +6,17 @@ use super::fields::{
     body_ref, non_negative, opt_vec3, orientation, positive, restitution, scalar, unit_vec3,
     values, vec3, R,
 };
-use super::schema::{ContactSpec, PieceSpec, PrimitiveSpec, ProfileSpec, Vector};
+use super::schema::{ContactSpec, Name, PieceSpec, PrimitiveSpec, ProfileSpec, Vector, Q};
 use super::units::Dim;
+use crate::mechanics::contact::convex::ConvexPart;
+use crate::mechanics::contact::mesh::MeshPart;
 use crate::mechanics::contact::profile::{Piece as ProfilePiece, Profile, Solid};
 use crate::mechanics::{ContactPair, Model, Primitive};
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use serde_saphyr::Spanned;
 
 /// Contact pair `i`.
-pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize) -> R<ContactPair> {
+pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize, file: &str) -> R<ContactPair> {
     let f = |s: &str| format!("contacts[{i}].{s}");
     let b1 = body_ref(model, &c.body, &f("body"))?;
     let b2 = match &c.against {
@@ -39,16 +41,16 @@ pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize) -> R<ContactPair
     ContactPair::new(
         name,
         b1,
-        primitive(&c.shape, &f("shape"))?,
+        primitive(&c.shape, &f("shape"), file)?,
         b2,
-        primitive(&c.against_shape, &f("against_shape"))?,
+        primitive(&c.against_shape, &f("against_shape"), file)?,
         mu,
         e,
     )
     .map_err(|m| SceneError::at(line(&c.shape), f("shape"), m))
 }
 
-fn primitive(p: &Spanned<PrimitiveSpec>, field: &str) -> R<Primitive> {
+fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive> {
     let fl = |s: &str| format!("{field}.{s}");
     let axis_of = |a: &Option<Vector>, name: &str| -> R<Vector3<f64>> {
         a.as_ref()
@@ -109,10 +111,109 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str) -> R<Primitive> {
         PrimitiveSpec::Point { position } => Primitive::Point {
             position: vec3(position, Dim::LENGTH, &fl("point.position"))?,
         },
+        PrimitiveSpec::Convex {
+            vertices,
+            file: mesh,
+            scale,
+        } => {
+            let points = match (vertices, mesh) {
+                (Some(t), None) => t
+                    .value
+                    .iter()
+                    .enumerate()
+                    .map(|(r, row)| {
+                        if row.len() != 3 {
+                            return Err(SceneError::at(
+                                line(t),
+                                fl(&format!("convex.vertices[{r}]")),
+                                format!("a vertex needs 3 coordinates, got {}", row.len()),
+                            ));
+                        }
+                        let c = |k: usize| {
+                            row[k].value(Dim::LENGTH).map_err(|m| {
+                                SceneError::at(line(t), fl(&format!("convex.vertices[{r}]")), m)
+                            })
+                        };
+                        Ok(Vector3::new(c(0)?, c(1)?, c(2)?))
+                    })
+                    .collect::<R<Vec<_>>>()?,
+                (None, Some(name)) => {
+                    let (vertices, triangles) = read_mesh(name, scale, file, &fl("convex"))?;
+                    let mesh = MeshPart::new(vertices.clone(), triangles)
+                        .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
+                    check_convex(&mesh)
+                        .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
+                    vertices
+                }
+                _ => {
+                    return Err(SceneError::at(
+                        line(p),
+                        fl("convex"),
+                        "give `vertices` or a mesh `file`, one of the two",
+                    ))
+                }
+            };
+            let at = vertices
+                .as_ref()
+                .and_then(line)
+                .or(mesh.as_ref().and_then(line));
+            Primitive::Convex(Box::new(
+                ConvexPart::new(&points, true).map_err(|m| SceneError::at(at, fl("convex"), m))?,
+            ))
+        }
+        PrimitiveSpec::Mesh { file: name, scale } => {
+            let (vertices, triangles) = read_mesh(name, &Some(scale.clone()), file, &fl("mesh"))?;
+            Primitive::Mesh(Box::new(
+                MeshPart::new(vertices, triangles)
+                    .map_err(|m| SceneError::at(line(name), fl("mesh.file"), m))?,
+            ))
+        }
         PrimitiveSpec::Profile(spec) => {
             Primitive::Profile(Box::new(profile(spec, line(p), &fl("profile"))?))
         }
     })
+}
+
+/// The mesh in file `name` (relative to the scene file `scene`), scaled to metres.
+fn read_mesh(
+    name: &Name,
+    scale: &Option<Q>,
+    scene: &str,
+    field: &str,
+) -> R<super::mesh_file::Triangles> {
+    let Some(scale) = scale else {
+        return Err(SceneError::at(
+            line(name),
+            format!("{field}.scale"),
+            "needed with a mesh file: the length of one file unit, e.g. `scale: 1 mm`",
+        ));
+    };
+    let scale = positive(scale, Dim::LENGTH, &format!("{field}.scale"))?;
+    let path = std::path::Path::new(scene)
+        .parent()
+        .unwrap_or(std::path::Path::new(""))
+        .join(&name.value);
+    super::mesh_file::read(&path, scale)
+        .map_err(|m| SceneError::at(line(name), format!("{field}.file"), m))
+}
+
+/// A closed mesh is convex when every vertex lies on or behind every triangle's plane.
+fn check_convex(mesh: &MeshPart) -> Result<(), String> {
+    let scale = mesh.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|i| mesh.vertices[i]);
+        let n = (b - a).cross(&(c - a)).normalize();
+        if let Some(v) = mesh
+            .vertices
+            .iter()
+            .position(|v| n.dot(&(v - a)) > 1e-9 * scale)
+        {
+            return Err(format!(
+                "the mesh is not convex: vertex {v} lies outside the plane of triangle {k}"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A point of a profile's plane.

@@ -4,6 +4,8 @@
 //! (the lever arm of both bodies is taken at the point on body 1).
 
 pub mod clearance;
+pub mod convex;
+pub mod mesh;
 pub mod primitives;
 pub mod profile;
 
@@ -119,10 +121,11 @@ impl ContactPair {
     ) -> Result<Self, String> {
         let goes_second = |s: &Primitive, other: &Primitive| match s {
             Primitive::Plane { .. } => !matches!(other, Primitive::Plane { .. }),
-            Primitive::Box { .. } => {
+            Primitive::Box { .. } | Primitive::Convex(_) => {
                 matches!(other, Primitive::Sphere { .. } | Primitive::Point { .. })
             }
             Primitive::Profile(_) => !matches!(other, Primitive::Profile(_)),
+            Primitive::Mesh(_) => !matches!(other, Primitive::Mesh(_) | Primitive::Plane { .. }),
             _ => false,
         };
         let (body1, shape1, body2, shape2) = if goes_second(&shape1, &shape2) {
@@ -130,29 +133,43 @@ impl ContactPair {
         } else {
             (body1, shape1, body2, shape2)
         };
+        // a box meeting a convex part or a mesh is taken as the convex part it is
+        let polyhedral = |s: &Primitive| matches!(s, Primitive::Convex(_) | Primitive::Mesh(_));
+        let (shape1, shape2) = match (shape1, shape2) {
+            (b @ Primitive::Box { .. }, other) if polyhedral(&other) => (b.into_convex(), other),
+            (Primitive::Convex(c), b @ Primitive::Box { .. }) => {
+                (Primitive::Convex(c), b.into_convex())
+            }
+            pair => pair,
+        };
         let supported = matches!(
             (&shape1, &shape2),
             (Primitive::Sphere { .. }, Primitive::Sphere { .. })
                 | (
                     Primitive::Sphere { .. } | Primitive::Point { .. },
-                    Primitive::Box { .. }
+                    Primitive::Box { .. } | Primitive::Convex(_) | Primitive::Mesh(_)
                 )
                 | (
                     Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Cylinder { .. },
                     Primitive::Profile(_)
                 )
                 | (
+                    Primitive::Convex(_),
+                    Primitive::Convex(_) | Primitive::Mesh(_)
+                )
+                | (
                     Primitive::Sphere { .. }
                         | Primitive::Box { .. }
                         | Primitive::Cylinder { .. }
                         | Primitive::Capsule { .. }
-                        | Primitive::Point { .. },
+                        | Primitive::Point { .. }
+                        | Primitive::Convex(_),
                     Primitive::Plane { .. }
                 )
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule or point against a plane; sphere or point against a box; sphere against sphere; point, sphere or cylinder against a profile)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; sphere against sphere; point, sphere or cylinder against a profile; convex or box against a convex part or a mesh)",
                 shape1.kind(),
                 shape2.kind()
             ));
@@ -173,9 +190,12 @@ impl ContactPair {
 
     /// Number of candidate points this pair expands into.
     pub fn candidates(&self) -> usize {
-        match &self.shape2 {
-            Primitive::Profile(p) => p.candidate_count(self.shape1.pin_faces()),
-            _ => self.shape1.candidate_count(),
+        match (&self.shape1, &self.shape2) {
+            (pin, Primitive::Profile(p)) => p.candidate_count(pin.pin_faces()),
+            (Primitive::Convex(a), Primitive::Convex(b)) => a.vertices.len() + b.vertices.len() + 1,
+            (Primitive::Convex(a), Primitive::Mesh(_)) => a.vertices.len(),
+            (_, Primitive::Convex(_) | Primitive::Mesh(_)) => 1,
+            (s1, _) => s1.candidate_count(),
         }
     }
 

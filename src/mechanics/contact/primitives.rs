@@ -2,7 +2,9 @@
 //! frame; `closest` returns the gap, the inertial normal (from body 2 towards body 1) and
 //! the two contact points for one candidate index.
 
-use super::profile::{Pin, Profile};
+use super::convex::{ConvexPart, Surface};
+use super::mesh::MeshPart;
+use super::profile::{Pin, Profile, OUT_OF_REACH};
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -44,6 +46,10 @@ pub enum Primitive {
     /// A planar profile of segments and arcs, extruded (`profile.rs`); pins (points,
     /// spheres, cylinders) meet it.
     Profile(Box<Profile>),
+    /// A convex polyhedron (`convex.rs`).
+    Convex(Box<ConvexPart>),
+    /// A triangle mesh, for fixed parts (`mesh.rs`).
+    Mesh(Box<MeshPart>),
 }
 
 impl Primitive {
@@ -56,6 +62,30 @@ impl Primitive {
             Primitive::Capsule { .. } => "capsule",
             Primitive::Point { .. } => "point",
             Primitive::Profile(_) => "profile",
+            Primitive::Convex(_) => "convex",
+            Primitive::Mesh(_) => "mesh",
+        }
+    }
+
+    /// A box as the convex part with its 8 corners (any other shape as it is).
+    pub(crate) fn into_convex(self) -> Primitive {
+        match self {
+            Primitive::Box {
+                center,
+                rotation,
+                half_extents: h,
+            } => {
+                let corners: Vec<Vector3<f64>> = (0..8)
+                    .map(|k| {
+                        let s = |bit: usize| if k & bit != 0 { 1.0 } else { -1.0 };
+                        center + rotation * Vector3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
+                    })
+                    .collect();
+                Primitive::Convex(Box::new(
+                    ConvexPart::new(&corners, true).expect("a box with positive sides is convex"),
+                ))
+            }
+            other => other,
         }
     }
 
@@ -72,6 +102,7 @@ impl Primitive {
     pub(crate) fn candidate_count(&self) -> usize {
         match self {
             Primitive::Box { .. } => 8,
+            Primitive::Convex(c) => c.vertices.len(),
             Primitive::Cylinder { .. } | Primitive::Capsule { .. } => 2,
             _ => 1,
         }
@@ -142,6 +173,95 @@ fn sphere_box(
         point1: x - normal * radius,
         point2: pose.point(&(center + rotation * surface)),
     }
+}
+
+/// The surface of a convex part or mesh (on a body at `pose`) nearest to the inertial
+/// point `x`.
+fn surface_of(solid: &Primitive, pose: &Pose, x: &Vector3<f64>) -> Surface {
+    let local = pose.p.inverse_transform_vector(&(x - pose.x));
+    match solid {
+        Primitive::Convex(c) => c.surface(&local),
+        Primitive::Mesh(m) => m.surface(&local),
+        _ => unreachable!("only convex parts and meshes have a surface query"),
+    }
+}
+
+/// A sphere (or a point, radius 0) centred at inertial `x` against a convex part or mesh.
+fn against_surface(
+    x: Vector3<f64>,
+    radius: f64,
+    solid: &Primitive,
+    pose: &Pose,
+) -> ContactGeometry {
+    let s = surface_of(solid, pose, &x);
+    let normal = pose.dir(&s.normal);
+    ContactGeometry {
+        gap: s.distance - radius,
+        normal,
+        point1: x - normal * radius,
+        point2: pose.point(&s.point),
+    }
+}
+
+/// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
+/// against `a`, or (the last) the deepest point of the two by GJK/EPA where it is an
+/// edge crossing an edge, which no vertex sees. Where that point is a vertex or its normal
+/// is a face's, a vertex candidate already holds it, and this one is out of reach.
+fn convex_convex(
+    a: &ConvexPart,
+    p1: &Pose,
+    b: &ConvexPart,
+    p2: &Pose,
+    k: usize,
+) -> ContactGeometry {
+    let (na, nb) = (a.vertices.len(), b.vertices.len());
+    if k < na {
+        let x = p1.point(&a.vertices[k]);
+        let s = b.surface(&p2.p.inverse_transform_vector(&(x - p2.x)));
+        return ContactGeometry {
+            gap: s.distance,
+            normal: p2.dir(&s.normal),
+            point1: x,
+            point2: p2.point(&s.point),
+        };
+    }
+    if k < na + nb {
+        let y = p2.point(&b.vertices[k - na]);
+        let s = a.surface(&p1.p.inverse_transform_vector(&(y - p1.x)));
+        return ContactGeometry {
+            gap: s.distance,
+            normal: -p1.dir(&s.normal),
+            point1: p1.point(&s.point),
+            point2: y,
+        };
+    }
+    let far = ContactGeometry {
+        gap: OUT_OF_REACH,
+        normal: Vector3::z(),
+        point1: p1.x,
+        point2: p1.x,
+    };
+    let Some(deepest) = a.deepest(p1, b, p2) else {
+        return far;
+    };
+    let near_vertex = |part: &ConvexPart, pose: &Pose, x: &Vector3<f64>| {
+        let scale = part.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        part.vertices
+            .iter()
+            .any(|v| (pose.point(v) - x).norm() <= 1e-9 * scale)
+    };
+    let face_normal = |part: &ConvexPart, pose: &Pose| {
+        part.face_normals()
+            .any(|f| pose.dir(&f).dot(&deepest.normal).abs() > 1.0 - 1e-9)
+    };
+    if near_vertex(a, p1, &deepest.point1)
+        || near_vertex(b, p2, &deepest.point2)
+        || face_normal(a, p1)
+        || face_normal(b, p2)
+    {
+        return far;
+    }
+    deepest
 }
 
 /// Closest points of candidate `k` of `s1` (on a body at `p1`) against `s2` (at `p2`).
@@ -237,14 +357,26 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     };
                     point_plane(end + w * *radius, pp, n, 0.0)
                 }
-                Primitive::Plane { .. } | Primitive::Profile(_) => {
+                Primitive::Convex(c) => point_plane(p1.point(&c.vertices[k]), pp, n, 0.0),
+                Primitive::Plane { .. } | Primitive::Profile(_) | Primitive::Mesh(_) => {
                     unreachable!(
-                        "plane–plane and profile–plane pairs are rejected by ContactPair::new"
+                        "plane–plane, profile–plane and mesh–plane pairs are rejected by ContactPair::new"
                     )
                 }
             }
         }
         (pin, Primitive::Profile(profile)) => profile.contact(p2, &Pin::of(pin, p1), k).geometry,
+        (
+            Primitive::Sphere { center, radius },
+            solid @ (Primitive::Convex(_) | Primitive::Mesh(_)),
+        ) => against_surface(p1.point(center), *radius, solid, p2),
+        (Primitive::Point { position }, solid @ (Primitive::Convex(_) | Primitive::Mesh(_))) => {
+            against_surface(p1.point(position), 0.0, solid, p2)
+        }
+        (Primitive::Convex(a), solid @ Primitive::Mesh(_)) => {
+            against_surface(p1.point(&a.vertices[k]), 0.0, solid, p2)
+        }
+        (Primitive::Convex(a), Primitive::Convex(b)) => convex_convex(a, p1, b, p2, k),
         _ => unreachable!("unsupported pairs are rejected by ContactPair::new"),
     }
 }

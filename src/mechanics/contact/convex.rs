@@ -1,0 +1,352 @@
+//! Convex parts: a convex polyhedron in its body's frame, the hull of a vertex list or of
+//! a mesh file, built with parry's convex hull. Its contacts are exact where they matter
+//! to a resting part: its vertices against a plane or another solid (a flat face on a flat
+//! face touches at every corner, so it does not rock), a pin's centre against its faces,
+//! and, between two convex parts, the deepest point that parry's GJK/EPA finds, which
+//! covers two edges crossing. parry's own types stay inside this module and `mesh.rs`.
+
+use nalgebra::Vector3;
+use parry3d_f64::math::Vector as PVector;
+
+/// The nalgebra vector of a parry one, and back.
+pub(super) fn from_parry(v: PVector) -> Vector3<f64> {
+    Vector3::new(v.x, v.y, v.z)
+}
+
+pub(super) fn to_parry(v: &Vector3<f64>) -> PVector {
+    PVector::new(v.x, v.y, v.z)
+}
+
+#[derive(Clone, Debug)]
+pub struct ConvexPart {
+    /// Hull vertices, body frame.
+    pub vertices: Vec<Vector3<f64>>,
+    /// Hull triangles (outward, counter-clockwise), as vertex indices.
+    triangles: Vec<[usize; 3]>,
+    /// Each triangle's outward unit normal and offset: n · x = d on its plane.
+    planes: Vec<(Vector3<f64>, f64)>,
+    /// The same hull as parry's shape, for GJK/EPA.
+    shape: parry3d_f64::shape::ConvexPolyhedron,
+}
+
+impl PartialEq for ConvexPart {
+    fn eq(&self, other: &Self) -> bool {
+        self.vertices == other.vertices && self.triangles == other.triangles
+    }
+}
+
+/// The closest boundary point of a solid to a point, with the signed distance (< 0 inside)
+/// and the outward unit normal there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    pub distance: f64,
+    pub point: Vector3<f64>,
+    pub normal: Vector3<f64>,
+}
+
+impl ConvexPart {
+    /// The hull of `points` (body frame). With `exact`, every point must be a vertex of
+    /// the hull: a point inside it means the list was not the vertex set of a convex part.
+    pub fn new(points: &[Vector3<f64>], exact: bool) -> Result<ConvexPart, String> {
+        if points.len() < 4 {
+            return Err(format!(
+                "a convex part needs at least 4 points, got {}",
+                points.len()
+            ));
+        }
+        let scale = points.iter().map(|p| p.norm()).fold(0.0, f64::max);
+        let pts: Vec<PVector> = points.iter().map(to_parry).collect();
+        let (hull, tris) = parry3d_f64::transformation::try_convex_hull(&pts)
+            .map_err(|e| format!("no convex hull: {e:?} (are the points coplanar?)"))?;
+        let vertices: Vec<Vector3<f64>> = hull.into_iter().map(from_parry).collect();
+        let triangles: Vec<[usize; 3]> = tris
+            .iter()
+            .map(|t| [t[0] as usize, t[1] as usize, t[2] as usize])
+            .collect();
+        let volume: f64 = triangles
+            .iter()
+            .map(|t| vertices[t[0]].dot(&vertices[t[1]].cross(&vertices[t[2]])) / 6.0)
+            .sum();
+        if volume <= 1e-12 * scale.powi(3) {
+            return Err("the hull is flat: the points span no volume".into());
+        }
+        let mut planes = Vec::with_capacity(triangles.len());
+        for t in &triangles {
+            let [a, b, c] = t.map(|i| vertices[i]);
+            let n = (b - a).cross(&(c - a));
+            if n.norm() <= 1e-12 * scale * scale {
+                return Err("the hull is flat: the points span no volume".into());
+            }
+            let n = n.normalize();
+            planes.push((n, n.dot(&a)));
+        }
+        let tolerance = 1e-9 * scale.max(f64::MIN_POSITIVE);
+        if exact {
+            let inside: Vec<usize> = points
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| {
+                    !vertices.iter().any(|v| (*v - **p).norm() <= tolerance)
+                        && planes.iter().all(|(n, d)| n.dot(p) - d < -tolerance)
+                })
+                .map(|(i, _)| i)
+                .collect();
+            if !inside.is_empty() {
+                return Err(format!(
+                    "the points are not convex: {} of them lie inside the hull of the others (points {:?})",
+                    inside.len(),
+                    inside
+                ));
+            }
+        }
+        let shape = parry3d_f64::shape::ConvexPolyhedron::from_convex_hull(&pts)
+            .ok_or("parry cannot build the convex polyhedron")?;
+        Ok(ConvexPart {
+            vertices,
+            triangles,
+            planes,
+            shape,
+        })
+    }
+
+    /// The outward normals of the hull's triangles (body frame).
+    pub fn face_normals(&self) -> impl Iterator<Item = Vector3<f64>> + '_ {
+        self.planes.iter().map(|(n, _)| *n)
+    }
+
+    /// The closest boundary point to `x` (body frame).
+    pub fn surface(&self, x: &Vector3<f64>) -> Surface {
+        let (deepest, k) = self
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(k, (n, d))| (n.dot(x) - d, k))
+            .fold((f64::MIN, 0), |a, b| if b.0 > a.0 { b } else { a });
+        if deepest <= 0.0 {
+            // inside: out through the nearest face plane, which is on the hull
+            let n = self.planes[k].0;
+            return Surface {
+                distance: deepest,
+                point: x - n * deepest,
+                normal: n,
+            };
+        }
+        let mut best = (f64::MAX, Vector3::zeros(), 0, false);
+        for (k, t) in self.triangles.iter().enumerate() {
+            if self.planes[k].0.dot(x) - self.planes[k].1 < 0.0 {
+                continue; // a face turned away cannot hold the closest point of an outside point
+            }
+            let (p, interior) = closest_on_triangle(x, &t.map(|i| self.vertices[i]));
+            let d = (x - p).norm_squared();
+            if d < best.0 {
+                best = (d, p, k, interior);
+            }
+        }
+        let (_, point, k, interior) = best;
+        surface_at(x, point, interior.then_some(self.planes[k]))
+    }
+
+    /// The deepest (or closest) pair of points between this part at pose `p1` and `other`
+    /// at `p2`, by parry's GJK/EPA, as a contact with this part as body 1.
+    pub fn deepest(
+        &self,
+        p1: &crate::mechanics::Pose,
+        other: &ConvexPart,
+        p2: &crate::mechanics::Pose,
+    ) -> Option<super::ContactGeometry> {
+        // other's frame relative to ours: pos12 maps other's local points into ours
+        let rel_q = p1.p.inverse() * p2.p;
+        let rel_x = p1.p.inverse_transform_vector(&(p2.x - p1.x));
+        let q = rel_q.quaternion();
+        let pos12 = parry3d_f64::math::Pose::from_parts(
+            to_parry(&rel_x),
+            parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
+        );
+        let c = parry3d_f64::query::details::contact_support_map_support_map(
+            &pos12,
+            &self.shape,
+            &other.shape,
+            f64::MAX,
+        )?;
+        // normal1 points out of this part towards the other; ours goes the other way
+        Some(super::ContactGeometry {
+            gap: c.dist,
+            normal: -p1.dir(&from_parry(c.normal1)),
+            point1: p1.point(&from_parry(c.point1)),
+            point2: p2.point(&from_parry(c.point2)),
+        })
+    }
+}
+
+/// The surface point `point` closest to the outside point `x`: on a face (its `plane`
+/// given) the normal is the face's, exact however close `x` is; on an edge or a vertex it
+/// is the direction from the point to `x`.
+pub(super) fn surface_at(
+    x: &Vector3<f64>,
+    point: Vector3<f64>,
+    plane: Option<(Vector3<f64>, f64)>,
+) -> Surface {
+    if let Some((n, d)) = plane {
+        let distance = n.dot(x) - d;
+        return Surface {
+            distance,
+            point: x - n * distance,
+            normal: n,
+        };
+    }
+    let d = (x - point).norm();
+    Surface {
+        distance: d,
+        point,
+        normal: if d > 0.0 {
+            (x - point) / d
+        } else {
+            Vector3::z()
+        },
+    }
+}
+
+/// The point of triangle `t` closest to `x`, and whether it is inside the face rather
+/// than on an edge or a vertex (Ericson, Real-Time Collision Detection 5.1.5).
+pub(super) fn closest_on_triangle(x: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> (Vector3<f64>, bool) {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (b - a, c - a, x - a);
+    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, false);
+    }
+    let bp = x - b;
+    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, false);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (a + ab * (d1 / (d1 - d3)), false);
+    }
+    let cp = x - c;
+    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, false);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (a + ac * (d2 / (d2 - d6)), false);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))), false);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    (a + ab * (vb * denom) + ac * (vc * denom), true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanics::contact::{ContactPair, Primitive};
+    use crate::mechanics::Pose;
+    use nalgebra::UnitQuaternion;
+    use std::f64::consts::FRAC_PI_4;
+
+    fn cube() -> Primitive {
+        let corners: Vec<Vector3<f64>> = (0..8)
+            .map(|k| {
+                let s = |bit: usize| if k & bit != 0 { 0.5 } else { -0.5 };
+                Vector3::new(s(1), s(2), s(4))
+            })
+            .collect();
+        Primitive::Convex(Box::new(ConvexPart::new(&corners, true).unwrap()))
+    }
+
+    /// Two unit cubes, one turned 45° about x resting on its bottom edge, the other turned
+    /// 45° about y with its top edge up: the edges cross, `d` apart. No vertex is near
+    /// the other cube; the deepest-point candidate finds the gap, apart or overlapping.
+    #[test]
+    fn crossing_edges_are_found_by_the_deepest_point() {
+        let r = 0.5 * 2f64.sqrt();
+        for d in [0.01, 1e-6, -1e-3] {
+            let poses = [
+                Pose {
+                    x: Vector3::new(0.0, 0.0, r + d),
+                    p: UnitQuaternion::from_euler_angles(FRAC_PI_4, 0.0, 0.0),
+                },
+                Pose {
+                    x: Vector3::new(0.0, 0.0, -r),
+                    p: UnitQuaternion::from_euler_angles(0.0, FRAC_PI_4, 0.0),
+                },
+            ];
+            let pair = ContactPair::new("x", Some(0), cube(), Some(1), cube(), 0.0, 0.0).unwrap();
+            let n = pair.candidates();
+            assert_eq!(n, 17);
+            let gaps: Vec<f64> = (0..n).map(|k| pair.evaluate(k, &poses).gap()).collect();
+            let vertices = gaps[..16].iter().cloned().fold(f64::MAX, f64::min);
+            assert!(vertices > 0.3, "{vertices}");
+            let edge = pair.evaluate(16, &poses);
+            assert!((edge.gap() - d).abs() < 1e-9, "d = {d}: {}", edge.gap());
+            assert!(
+                (edge.normal() - Vector3::z()).norm() < 1e-6,
+                "{:?}",
+                edge.normal()
+            );
+        }
+        // resting face on face, offset: the deepest point is a face's, left to the vertices
+        // (one corner of each square lies on the other)
+        let poses = [
+            Pose {
+                x: Vector3::new(0.1, 0.2, 1.0),
+                p: UnitQuaternion::identity(),
+            },
+            Pose::identity(),
+        ];
+        let pair = ContactPair::new("x", Some(0), cube(), Some(1), cube(), 0.0, 0.0).unwrap();
+        let gaps: Vec<f64> = (0..17).map(|k| pair.evaluate(k, &poses).gap()).collect();
+        assert_eq!(gaps[16], crate::mechanics::contact::profile::OUT_OF_REACH);
+        assert_eq!(gaps.iter().filter(|g| g.abs() < 1e-15).count(), 2);
+    }
+
+    /// The signed distance of points to a tetrahedron against the planes and a brute-force
+    /// sampling of its faces.
+    #[test]
+    fn surface_distance_matches_sampling() {
+        let pts = [
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.0, 1.0, 0.0),
+            Vector3::new(0.0, 0.0, 1.0),
+        ];
+        let tet = ConvexPart::new(&pts, true).unwrap();
+        let faces = [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]];
+        let n = 400;
+        for x in [
+            Vector3::new(0.2, 0.2, 0.2),
+            Vector3::new(1.0, 1.0, 1.0),
+            Vector3::new(-0.3, 0.4, 0.1),
+            Vector3::new(2.0, -1.0, 0.5),
+            Vector3::new(-0.1, -0.1, -0.1),
+            Vector3::new(0.05, 0.05, 0.6),
+        ] {
+            let s = tet.surface(&x);
+            let mut best = f64::MAX;
+            for f in faces {
+                for i in 0..=n {
+                    for j in 0..=(n - i) {
+                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                        let p =
+                            pts[f[0]] + (pts[f[1]] - pts[f[0]]) * u + (pts[f[2]] - pts[f[0]]) * v;
+                        best = best.min((x - p).norm());
+                    }
+                }
+            }
+            // the grid's spacing bounds the sampling error
+            assert!(
+                (s.distance.abs() - best).abs() < 2e-3,
+                "{x:?}: {} vs {best}",
+                s.distance
+            );
+            assert!((x - s.point).norm() - s.distance.abs() < 1e-12);
+            let inside = x.iter().all(|&c| c > 0.0) && x.sum() < 1.0;
+            assert_eq!(s.distance < 0.0, inside, "{x:?}");
+        }
+    }
+}
