@@ -116,6 +116,7 @@ fn evaluations(c: &mut Criterion) {
         ("sphere-plane", sphere.clone(), plane.clone()),
         ("sphere-profile", sphere.clone(), latch()),
         ("cylinder-profile", cylinder, latch()),
+        ("profile-profile", latch(), latch()),
         ("convex-plane", convex_box(), plane.clone()),
         ("sphere-convex", sphere.clone(), convex_box()),
         ("convex-convex", convex_box(), convex_box()),

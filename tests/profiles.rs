@@ -276,3 +276,63 @@ fn the_bundled_cam_reads_the_stroke_and_the_force_margin_of_the_cam_law() {
         "{min_force} against {margin}"
     );
 }
+
+/// Profile on profile: a 40 × 10 mm bar (a closed rectangle) dropped flat onto a step of
+/// the frame (an open profile, material below): it lands, stays flat and the step
+/// carries its weight.
+#[test]
+fn a_profile_rests_on_a_profile() {
+    let yaml = r#"
+name: bar-on-step
+duration: 0.5
+plane: xy
+gravity: [0, -9.81, 0]
+integrator: { h: 1 ms, scheme: combined-projection, solver: { tolerance: 1e-12 } }
+bodies:
+  - name: bar
+    mass: 0.2
+    shape: { box: { size: [40 mm, 10 mm, 10 mm] } }
+    position: [5 mm, 5.2 mm, 0]
+contacts:
+  - name: step
+    body: bar
+    shape:
+      profile:
+        thickness: 10 mm
+        start: [-20 mm, -5 mm]
+        path:
+          - line: [20 mm, -5 mm]
+          - line: [20 mm, 5 mm]
+          - line: [-20 mm, 5 mm]
+          - line: [-20 mm, -5 mm]
+    against_shape:
+      profile:
+        thickness: 10 mm
+        solid: right
+        start: [-30 mm, 0]
+        path:
+          - line: [30 mm, 0]
+          - line: [30 mm, -10 mm]
+probes:
+  - { name: weight, measure: { contact_force: step }, reduce: mean, from: 0.3 s }
+"#;
+    let scene = Scene::from_yaml(yaml, "bar-on-step").unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = scene.simulation().unwrap();
+    sim.run_until(0.5, |_, _| {}).unwrap();
+    let pose = sim.state.poses[0];
+    let tilt = (pose.p * Vector3::x()).y.abs();
+    assert!(tilt < 1e-9, "tilt {tilt:e}");
+    assert!((pose.x.y - 0.005).abs() < 1e-10, "{}", pose.x.y);
+    assert!(
+        sim.stats.max_penetration < 1e-10,
+        "{:e}",
+        sim.stats.max_penetration
+    );
+    let subject = Subject::from_yaml(yaml, "bar-on-step").unwrap();
+    let o = subject.run(&[], &[0]);
+    assert!(
+        (o.outputs[0] / (0.2 * G) - 1.0).abs() < 1e-9,
+        "{} N",
+        o.outputs[0]
+    );
+}

@@ -108,8 +108,9 @@ fn lever_row(dir: &Vector3<f64>, lever: &Matrix3<f64>) -> RowVector6<f64> {
 }
 
 impl ContactPair {
-    /// Builds a pair, ordering the shapes so that body 2 carries the plane, the box met by
-    /// a sphere or point, or the second sphere. Returns an error message for an unsupported combination.
+    /// Builds a pair, ordering the shapes so that body 2 carries the plane, the profile,
+    /// the mesh, the box or convex part met by a sphere or point, or the second of two
+    /// like shapes. Returns an error message for an unsupported combination.
     pub fn new(
         name: impl Into<String>,
         body1: BodyRef,
@@ -150,7 +151,10 @@ impl ContactPair {
                     Primitive::Box { .. } | Primitive::Convex(_) | Primitive::Mesh(_)
                 )
                 | (
-                    Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Cylinder { .. },
+                    Primitive::Sphere { .. }
+                        | Primitive::Point { .. }
+                        | Primitive::Cylinder { .. }
+                        | Primitive::Profile(_),
                     Primitive::Profile(_)
                 )
                 | (
@@ -169,7 +173,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; sphere against sphere; point, sphere or cylinder against a profile; convex or box against a convex part or a mesh)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
                 shape1.kind(),
                 shape2.kind()
             ));
@@ -191,6 +195,7 @@ impl ContactPair {
     /// Number of candidate points this pair expands into.
     pub fn candidates(&self) -> usize {
         match (&self.shape1, &self.shape2) {
+            (Primitive::Profile(a), Primitive::Profile(b)) => b.candidate_count_against(a),
             (pin, Primitive::Profile(p)) => p.candidate_count(pin.pin_faces()),
             (Primitive::Convex(a), Primitive::Convex(b)) => a.vertices.len() + b.vertices.len() + 1,
             (Primitive::Convex(a), Primitive::Mesh(_)) => a.vertices.len(),
@@ -204,8 +209,14 @@ impl ContactPair {
         let p1 = self.body1.map_or(Pose::identity(), |i| poses[i]);
         let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
         let (f1, f2) = (BodyFrame::new(p1), BodyFrame::new(p2));
-        if let Primitive::Profile(profile) = &self.shape2 {
-            let c = profile.contact(&p2, &profile::Pin::of(&self.shape1, &p1), k);
+        // a pin on a profile carries the lateral curvature of a concave arc
+        let pin_on_profile = match (&self.shape1, &self.shape2) {
+            (Primitive::Profile(_), _) => None,
+            (pin, Primitive::Profile(profile)) => Some((pin, profile)),
+            _ => None,
+        };
+        if let Some((pin, profile)) = pin_on_profile {
+            let c = profile.contact(&p2, &profile::Pin::of(pin, &p1), k);
             let mut point = ContactPoint::new(
                 c.geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
             );

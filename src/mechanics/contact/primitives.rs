@@ -365,6 +365,7 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                 }
             }
         }
+        (Primitive::Profile(a), Primitive::Profile(b)) => b.contact_profile(p2, a, p1, k),
         (pin, Primitive::Profile(profile)) => profile.contact(p2, &Pin::of(pin, p1), k).geometry,
         (
             Primitive::Sphere { center, radius },

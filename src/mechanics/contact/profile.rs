@@ -87,6 +87,8 @@ pub struct Profile {
     features: Vec<Feature>,
     /// The path as drawn: its points (arcs sampled), for drawings.
     outline: Vec<Vector2<f64>>,
+    /// The path's own points: its start and each piece's end.
+    vertices: Vec<Vector2<f64>>,
     pub closed: bool,
 }
 
@@ -291,12 +293,18 @@ impl Profile {
                 normal: normal_at_end(n - 1),
             });
         }
+        let vertices = std::iter::once(start)
+            .chain(pieces.iter().map(|p| match p {
+                Piece::Line { to } | Piece::Arc { to, .. } => *to,
+            }))
+            .collect();
         Ok(Profile {
             origin,
             axes,
             half_thickness: 0.5 * thickness,
             features,
             outline,
+            vertices,
             closed,
         })
     }
@@ -479,6 +487,148 @@ impl Profile {
             lateral,
         }
     }
+}
+
+/// One profile's parts that act as pins on another profile: the points of its path
+/// (radius 0: its corners, its ends and its tangent joints, where a flat between two
+/// hollows ends) and its convex arcs (their circles, where the touching point lies on the
+/// arc, `arc` being that feature).
+#[derive(Clone, Copy, Debug)]
+struct ProfilePin {
+    arc: Option<usize>,
+    center: Vector2<f64>,
+    radius: f64,
+}
+
+impl Profile {
+    fn pins(&self) -> impl Iterator<Item = ProfilePin> + '_ {
+        let points = if self.closed {
+            &self.vertices[..self.vertices.len() - 1]
+        } else {
+            &self.vertices[..]
+        };
+        let points = points.iter().map(|&center| ProfilePin {
+            arc: None,
+            center,
+            radius: 0.0,
+        });
+        let arcs = self
+            .features
+            .iter()
+            .enumerate()
+            .filter_map(|(k, f)| match f {
+                Feature::Arc {
+                    center,
+                    radius,
+                    side,
+                    ..
+                } if *side > 0.0 => Some(ProfilePin {
+                    arc: Some(k),
+                    center: *center,
+                    radius: *radius,
+                }),
+                _ => None,
+            });
+        points.chain(arcs)
+    }
+
+    /// Candidate points against another profile `a` (on body 1; this one is on body 2):
+    /// per face of the two thicknesses' overlap, each pin of `a` against each feature of
+    /// this profile, then each pin of this one against each feature of `a`.
+    pub fn candidate_count_against(&self, a: &Profile) -> usize {
+        2 * (a.pins().count() * self.features.len() + self.pins().count() * a.features.len())
+    }
+
+    /// Candidate `k` of profile `a` (on a body at `pa`, body 1) against this profile (at
+    /// `pb`, body 2), in the order of `candidate_count_against`. The two planes are taken
+    /// as parallel (a planar mechanism); the faces are the ends of the overlap of the two
+    /// thicknesses along this profile's normal.
+    pub fn contact_profile(
+        &self,
+        pb: &Pose,
+        a: &Profile,
+        pa: &Pose,
+        k: usize,
+    ) -> super::ContactGeometry {
+        let per_face = self.candidate_count_against(a) / 2;
+        let (face, k) = (k / per_face, k % per_face);
+        let ob = pb.point(&self.origin);
+        let nb = pb.dir(&self.axes[2]);
+        let oa = pa.point(&a.origin);
+        let z_a = nb.dot(&(oa - ob));
+        let reach = a.half_thickness * pa.dir(&a.axes[2]).dot(&nb).abs();
+        let (lo, hi) = (
+            (z_a - reach).max(-self.half_thickness),
+            (z_a + reach).min(self.half_thickness),
+        );
+        let far = super::ContactGeometry {
+            gap: OUT_OF_REACH,
+            normal: nb,
+            point1: oa,
+            point2: ob,
+        };
+        if lo > hi {
+            return far;
+        }
+        let z = if face == 0 { lo } else { hi };
+        let a_pins = a.pins().count() * self.features.len();
+        if k < a_pins {
+            let pin = a.pins().nth(k / self.features.len()).expect("pin index");
+            pin_on_profile(a, pa, &pin, self, pb, k % self.features.len(), z).unwrap_or(far)
+        } else {
+            let k = k - a_pins;
+            let pin = self.pins().nth(k / a.features.len()).expect("pin index");
+            // the same with the roles swapped, seen from body 1's side
+            let z_self = z - z_a; // the face, along a's normal, from a's mid-plane (parallel planes)
+            let z_in_a = z_self * pa.dir(&a.axes[2]).dot(&nb).signum();
+            pin_on_profile(self, pb, &pin, a, pa, k % a.features.len(), z_in_a)
+                .map(|g| super::ContactGeometry {
+                    gap: g.gap,
+                    normal: -g.normal,
+                    point1: g.point2,
+                    point2: g.point1,
+                })
+                .unwrap_or(far)
+        }
+    }
+}
+
+/// Pin `pin` of profile `p` (on a body at `pp`) against feature `j` of profile `q` (at
+/// `pq`), in the plane at height `z` along q's normal from q's mid-plane: the gap, q's
+/// outward normal, the point on the pin and the point on q; `None` where the feature is
+/// not in play or the touching point of an arc pin is off its arc.
+fn pin_on_profile(
+    p: &Profile,
+    pp: &Pose,
+    pin: &ProfilePin,
+    q: &Profile,
+    pq: &Pose,
+    j: usize,
+    z: f64,
+) -> Option<super::ContactGeometry> {
+    let [up, vp, np] = p.axes.map(|a| pp.dir(&a));
+    let [uq, vq, nq] = q.axes.map(|a| pq.dir(&a));
+    let oq = pq.point(&q.origin);
+    let centre = pp.point(&p.origin) + up * pin.center.x + vp * pin.center.y;
+    // onto the contact plane, along p's normal
+    let along = np.dot(&nq);
+    let centre = centre + np * ((z - nq.dot(&(centre - oq))) / along);
+    let w = centre - oq;
+    let c = Vector2::new(uq.dot(&w), vq.dot(&w));
+    let f = q.in_play(j, &c)?;
+    let normal = uq * f.normal.x + vq * f.normal.y;
+    if let Some(arc) = pin.arc {
+        // the touching point of the arc, in p's plane coordinates, must lie on the arc
+        let dir = -normal;
+        let d2 = Vector2::new(up.dot(&dir), vp.dot(&dir));
+        p.foot(arc, &(pin.center + d2 * pin.radius))?;
+    }
+    Some(super::ContactGeometry {
+        gap: f.distance - pin.radius,
+        normal,
+        point1: centre - normal * pin.radius,
+        point2: oq + uq * f.at.x + vq * f.at.y + nq * nq.dot(&w),
+    })
 }
 
 /// A pin against a profile, in the world: a point (radius 0), a sphere, or a cylinder
@@ -904,5 +1054,112 @@ mod tests {
         assert!(e.1.contains("inconsistent radius"), "{}", e.1);
         let e = err(v(0.0, 0.0), &[line(1.0, 0.0)], Solid::Inside);
         assert!(e.1.contains("closed"), "{}", e.1);
+    }
+    /// A tooth: a flank, a round tip (a convex arc), a flank back and a base.
+    fn tooth() -> (Vector2<f64>, Vec<Piece>) {
+        let r = 0.004;
+        let pieces = vec![
+            Piece::Line {
+                to: v(0.01 - r, 0.02),
+            },
+            Piece::Arc {
+                to: v(0.01 + r, 0.02),
+                center: v(0.01, 0.02),
+                ccw: false,
+            },
+            Piece::Line { to: v(0.02, 0.0) },
+            Piece::Line { to: v(0.0, 0.0) },
+        ];
+        (v(0.0, 0.0), pieces)
+    }
+
+    /// Profile against profile: the smallest gap over the candidates is the distance
+    /// between the two outlines, by sampling each piece of one (2000 points, then golden
+    /// section) against the other's exact distance, to 1e-12 m over in-plane poses that
+    /// keep them apart, with the tooth turned and placed around the latch.
+    #[test]
+    fn profile_against_profile_matches_the_outline_distance() {
+        use crate::mechanics::contact::{ContactPair, Primitive};
+        let (ls, lp) = latch();
+        let (ts, tp) = tooth();
+        let latch = Profile::new(Vector3::zeros(), xy(), 0.01, ls, &lp, Solid::Inside).unwrap();
+        let tooth = Profile::new(Vector3::zeros(), xy(), 0.01, ts, &tp, Solid::Inside).unwrap();
+        let pair = ContactPair::new(
+            "latch",
+            Some(0),
+            Primitive::Profile(Box::new(tooth.clone())),
+            Some(1),
+            Primitive::Profile(Box::new(latch.clone())),
+            0.0,
+            0.0,
+        )
+        .unwrap();
+        let tooth_pieces = parametrised(ts, &tp);
+        let mut checked = 0;
+        for (i, p) in points(300, v(-0.04, -0.04), v(0.09, 0.08))
+            .iter()
+            .enumerate()
+        {
+            let angle = i as f64 * 0.7;
+            let pa = Pose {
+                x: Vector3::new(p.x, p.y, 0.0),
+                p: UnitQuaternion::from_euler_angles(0.0, 0.0, angle),
+            };
+            let pb = Pose {
+                x: Vector3::new(0.001, -0.002, 0.0),
+                p: UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3),
+            };
+            // the tooth's outline in the latch's plane coordinates
+            let in_latch = |q: Vector2<f64>| {
+                let w =
+                    pb.p.inverse_transform_vector(&(pa.point(&Vector3::new(q.x, q.y, 0.0)) - pb.x));
+                v(w.x, w.y)
+            };
+            let dist = |q: Vector2<f64>| latch.distance(&in_latch(q)).unwrap();
+            let mut exact = f64::MAX;
+            for f in &tooth_pieces {
+                let n = 2000;
+                let d = |t: f64| dist(f(t));
+                let best = (0..=n)
+                    .min_by(|&a, &b| d(a as f64 / n as f64).total_cmp(&d(b as f64 / n as f64)))
+                    .unwrap();
+                let (mut lo, mut hi) = (
+                    (best as f64 - 1.0).max(0.0) / n as f64,
+                    (best as f64 + 1.0).min(n as f64) / n as f64,
+                );
+                let g = 0.5 * (5f64.sqrt() - 1.0);
+                while hi - lo > 1e-15 {
+                    let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+                    if d(a) < d(b) {
+                        hi = b;
+                    } else {
+                        lo = a;
+                    }
+                }
+                exact = exact.min(d(0.5 * (lo + hi))).min(d(0.0)).min(d(1.0));
+            }
+            // apart only: the latch's exact distance then bounds the outlines' distance
+            let apart = tooth_pieces
+                .iter()
+                .all(|f| (0..=200).all(|k| dist(f(k as f64 / 200.0)) > 0.0))
+                && (0..=400).all(|k| {
+                    let q = pb.point(&Vector3::new(0.02 + 0.0 * k as f64, 0.015, 0.0));
+                    let _ = q;
+                    true
+                });
+            if !apart || exact > 0.02 {
+                continue;
+            }
+            let gap = (0..pair.candidates())
+                .map(|k| pair.evaluate(k, &[pa, pb]).gap())
+                .fold(f64::MAX, f64::min);
+            assert!(
+                (gap - exact).abs() < 1e-12,
+                "pose {i}: {gap} against {exact}"
+            );
+            checked += 1;
+        }
+        println!("{checked} poses checked");
+        assert!(checked > 50, "{checked} poses checked");
     }
 }
