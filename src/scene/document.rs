@@ -560,6 +560,7 @@ impl Node for PrimitiveSpec {
                 vertices,
                 file,
                 scale,
+                rounding,
             } => v.node(
                 "convex",
                 &mut With(|v: &mut dyn Visitor| {
@@ -567,6 +568,7 @@ impl Node for PrimitiveSpec {
                     if file.is_some() {
                         v.scalar("scale", scale, L);
                     }
+                    v.scalar("rounding", rounding, L);
                 }),
             ),
             PrimitiveSpec::Mesh { scale, .. } => v.node(

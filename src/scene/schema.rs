@@ -269,6 +269,8 @@ pub enum PrimitiveSpec {
         vertices: Option<Spanned<Vec<Vec<Quantity>>>>,
         file: Option<Name>,
         scale: Option<Q>,
+        /// Radius of the rounding of its edges and corners (default 0).
+        rounding: Option<Q>,
     },
     /// A triangle mesh from `file` (STL or OBJ, relative to the scene), for a fixed part;
     /// `scale` as for `convex`.

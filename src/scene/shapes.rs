@@ -115,6 +115,7 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
             vertices,
             file: mesh,
             scale,
+            rounding,
         } => {
             let points = match (vertices, mesh) {
                 (Some(t), None) => t
@@ -157,8 +158,13 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
                 .as_ref()
                 .and_then(line)
                 .or(mesh.as_ref().and_then(line));
+            let rounding = rounding.as_ref().map_or(Ok(0.0), |q| {
+                non_negative(q, Dim::LENGTH, &fl("convex.rounding"))
+            })?;
             Primitive::Convex(Box::new(
-                ConvexPart::new(&points, true).map_err(|m| SceneError::at(at, fl("convex"), m))?,
+                ConvexPart::new(&points, true)
+                    .map_err(|m| SceneError::at(at, fl("convex"), m))?
+                    .rounded(rounding),
             ))
         }
         PrimitiveSpec::Mesh { file: name, scale } => {

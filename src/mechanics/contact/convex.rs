@@ -21,6 +21,9 @@ pub(super) fn to_parry(v: &Vector3<f64>) -> PVector {
 pub struct ConvexPart {
     /// Hull vertices, body frame.
     pub vertices: Vec<Vector3<f64>>,
+    /// Radius of the sphere swept over the hull (0: sharp): a part with rounded edges
+    /// and corners, whose every candidate gap is the hull's less this radius.
+    pub rounding: f64,
     /// Hull triangles (outward, counter-clockwise), as vertex indices.
     triangles: Vec<[usize; 3]>,
     /// Each triangle's outward unit normal and offset: n · x = d on its plane.
@@ -31,7 +34,9 @@ pub struct ConvexPart {
 
 impl PartialEq for ConvexPart {
     fn eq(&self, other: &Self) -> bool {
-        self.vertices == other.vertices && self.triangles == other.triangles
+        self.vertices == other.vertices
+            && self.triangles == other.triangles
+            && self.rounding == other.rounding
     }
 }
 
@@ -103,10 +108,19 @@ impl ConvexPart {
             .ok_or("parry cannot build the convex polyhedron")?;
         Ok(ConvexPart {
             vertices,
+            rounding: 0.0,
             triangles,
             planes,
             shape,
         })
+    }
+
+    /// The same hull with its edges and corners rounded by `radius`.
+    pub fn rounded(self, radius: f64) -> ConvexPart {
+        ConvexPart {
+            rounding: radius,
+            ..self
+        }
     }
 
     /// The outward normals of the hull's triangles (body frame).
@@ -348,5 +362,65 @@ mod tests {
             let inside = x.iter().all(|&c| c > 0.0) && x.sum() < 1.0;
             assert_eq!(s.distance < 0.0, inside, "{x:?}");
         }
+    }
+    /// A rounded part is the hull swept by a sphere: every gap falls by the radius, to a
+    /// plane, to a sphere near a face and near a corner, and between crossing edges.
+    #[test]
+    fn rounding_lowers_every_gap_by_its_radius() {
+        let r = 0.01;
+        let rounded = || match cube() {
+            Primitive::Convex(c) => Primitive::Convex(Box::new(c.rounded(r))),
+            _ => unreachable!(),
+        };
+        let plane = Primitive::Plane {
+            point: Vector3::zeros(),
+            normal: Vector3::z(),
+        };
+        let at = |z: f64| Pose {
+            x: Vector3::new(0.0, 0.0, z),
+            p: UnitQuaternion::identity(),
+        };
+        let on_plane = ContactPair::new("p", Some(0), rounded(), None, plane, 0.0, 0.0).unwrap();
+        let lowest = (0..8)
+            .map(|k| on_plane.evaluate(k, &[at(0.6)]).gap())
+            .fold(f64::MAX, f64::min);
+        assert!((lowest - (0.1 - r)).abs() < 1e-15, "{lowest}");
+        let ball = Primitive::Sphere {
+            center: Vector3::zeros(),
+            radius: 0.1,
+        };
+        let pair = ContactPair::new("s", Some(1), ball, Some(0), rounded(), 0.0, 0.0).unwrap();
+        let sphere_at = |x: Vector3<f64>| {
+            let poses = [
+                Pose::identity(),
+                Pose {
+                    x,
+                    p: UnitQuaternion::identity(),
+                },
+            ];
+            pair.evaluate(0, &poses).gap()
+        };
+        // above a face, and off a corner along the diagonal
+        assert!((sphere_at(Vector3::new(0.1, 0.2, 0.8)) - (0.3 - 0.1 - r)).abs() < 1e-15);
+        let corner = Vector3::repeat(0.5);
+        let x = corner + Vector3::repeat(1.0).normalize() * 0.4;
+        assert!((sphere_at(x) - (0.4 - 0.1 - r)).abs() < 1e-14);
+        // crossing edges, 0.05 apart between the hulls
+        let s2 = 0.5 * 2f64.sqrt();
+        let poses = [
+            Pose {
+                x: Vector3::new(0.0, 0.0, s2 + 0.05),
+                p: UnitQuaternion::from_euler_angles(FRAC_PI_4, 0.0, 0.0),
+            },
+            Pose {
+                x: Vector3::new(0.0, 0.0, -s2),
+                p: UnitQuaternion::from_euler_angles(0.0, FRAC_PI_4, 0.0),
+            },
+        ];
+        let edges =
+            ContactPair::new("e", Some(0), rounded(), Some(1), rounded(), 0.0, 0.0).unwrap();
+        let g = edges.evaluate(16, &poses);
+        assert!((g.gap() - (0.05 - 2.0 * r)).abs() < 1e-9, "{}", g.gap());
+        assert!((g.geometry.point1 - g.geometry.point2).norm() - g.gap() < 1e-9);
     }
 }

@@ -186,7 +186,8 @@ fn surface_of(solid: &Primitive, pose: &Pose, x: &Vector3<f64>) -> Surface {
     }
 }
 
-/// A sphere (or a point, radius 0) centred at inertial `x` against a convex part or mesh.
+/// A sphere (or a point, radius 0) centred at inertial `x` against a convex part (with
+/// its rounding) or a mesh.
 fn against_surface(
     x: Vector3<f64>,
     radius: f64,
@@ -194,12 +195,16 @@ fn against_surface(
     pose: &Pose,
 ) -> ContactGeometry {
     let s = surface_of(solid, pose, &x);
+    let rounding = match solid {
+        Primitive::Convex(c) => c.rounding,
+        _ => 0.0,
+    };
     let normal = pose.dir(&s.normal);
     ContactGeometry {
-        gap: s.distance - radius,
+        gap: s.distance - radius - rounding,
         normal,
         point1: x - normal * radius,
-        point2: pose.point(&s.point),
+        point2: pose.point(&s.point) + normal * rounding,
     }
 }
 
@@ -208,6 +213,27 @@ fn against_surface(
 /// edge crossing an edge, which no vertex sees. Where that point is a vertex or its normal
 /// is a face's, a vertex candidate already holds it, and this one is out of reach.
 fn convex_convex(
+    a: &ConvexPart,
+    p1: &Pose,
+    b: &ConvexPart,
+    p2: &Pose,
+    k: usize,
+) -> ContactGeometry {
+    let g = sharp_convex_convex(a, p1, b, p2, k);
+    if g.gap == OUT_OF_REACH {
+        return g;
+    }
+    // the rounded parts' surfaces lie their radii out along the normal
+    ContactGeometry {
+        gap: g.gap - a.rounding - b.rounding,
+        point1: g.point1 - g.normal * a.rounding,
+        point2: g.point2 + g.normal * b.rounding,
+        ..g
+    }
+}
+
+/// `convex_convex` for the hulls themselves, without their rounding.
+fn sharp_convex_convex(
     a: &ConvexPart,
     p1: &Pose,
     b: &ConvexPart,
@@ -357,7 +383,7 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                     };
                     point_plane(end + w * *radius, pp, n, 0.0)
                 }
-                Primitive::Convex(c) => point_plane(p1.point(&c.vertices[k]), pp, n, 0.0),
+                Primitive::Convex(c) => point_plane(p1.point(&c.vertices[k]), pp, n, c.rounding),
                 Primitive::Plane { .. } | Primitive::Profile(_) | Primitive::Mesh(_) => {
                     unreachable!(
                         "plane–plane, profile–plane and mesh–plane pairs are rejected by ContactPair::new"
@@ -375,7 +401,7 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
             against_surface(p1.point(position), 0.0, solid, p2)
         }
         (Primitive::Convex(a), solid @ Primitive::Mesh(_)) => {
-            against_surface(p1.point(&a.vertices[k]), 0.0, solid, p2)
+            against_surface(p1.point(&a.vertices[k]), a.rounding, solid, p2)
         }
         (Primitive::Convex(a), Primitive::Convex(b)) => convex_convex(a, p1, b, p2, k),
         _ => unreachable!("unsupported pairs are rejected by ContactPair::new"),
