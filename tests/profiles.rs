@@ -336,3 +336,29 @@ probes:
         o.outputs[0]
     );
 }
+
+/// Drawings show a closed profile as a polygon along its outline (arcs sampled) and an
+/// open one as a polyline.
+#[test]
+fn drawings_show_profiles() {
+    use mc_study::drawing::{svg, Snapshot, View};
+    let scene = cam_follower(1.0);
+    let poses: Vec<_> = scene.model.bodies.iter().map(|b| b.pose).collect();
+    let text = svg(&scene.model, &[Snapshot { t: 0.0, poses }], View::Xy, "cam");
+    // the cam: a closed polygon of the 64-sided sampling of its circle, 30 mm in radius
+    let cam = text
+        .lines()
+        .filter(|l| l.starts_with("<polygon"))
+        .map(|l| l.matches(',').count())
+        .max()
+        .unwrap();
+    assert!(cam >= 64, "{cam} points");
+    let open = Scene::from_yaml(
+        "duration: 1\nbodies:\n  - { name: b, mass: 1, inertia: [1, 1, 1] }\ncontacts:\n  - body: b\n    shape: { point: { position: [0, 0, 0] } }\n    against_shape: { profile: { thickness: 0.01, solid: right, start: [0, 0], path: [ { line: [0.1, 0] }, { arc: { to: [0.2, 0], center: [0.15, 0] } } ] } }\n",
+        "open",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let poses: Vec<_> = open.model.bodies.iter().map(|b| b.pose).collect();
+    let text = svg(&open.model, &[Snapshot { t: 0.0, poses }], View::Xy, "open");
+    assert!(text.contains("<polyline fill=\"none\""), "{text}");
+}
