@@ -209,9 +209,11 @@ fn against_surface(
 }
 
 /// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
-/// against `a`, or (the last) the deepest point of the two by GJK/EPA where it is an
-/// edge crossing an edge, which no vertex sees. Where that point is a vertex or its normal
-/// is a face's, a vertex candidate already holds it, and this one is out of reach.
+/// against `a`, or (the last) the deepest point of the two by GJK/EPA, which holds what no
+/// vertex sees: two edges crossing, or an edge lying across a face it overhangs. Where
+/// that point is a vertex of either, its vertex candidate already holds it, and this one
+/// is out of reach; elsewhere, between two faces resting on each other, it is one more
+/// point of their contact.
 fn convex_convex(
     a: &ConvexPart,
     p1: &Pose,
@@ -276,15 +278,7 @@ fn sharp_convex_convex(
             .iter()
             .any(|v| (pose.point(v) - x).norm() <= 1e-9 * scale)
     };
-    let face_normal = |part: &ConvexPart, pose: &Pose| {
-        part.face_normals()
-            .any(|f| pose.dir(&f).dot(&deepest.normal).abs() > 1.0 - 1e-9)
-    };
-    if near_vertex(a, p1, &deepest.point1)
-        || near_vertex(b, p2, &deepest.point2)
-        || face_normal(a, p1)
-        || face_normal(b, p2)
-    {
+    if near_vertex(a, p1, &deepest.point1) || near_vertex(b, p2, &deepest.point2) {
         return far;
     }
     deepest
