@@ -339,3 +339,48 @@ fn bad_convex_parts_and_meshes_name_the_field() {
         assert!(e.message.contains(what), "{shape}: {e}");
     }
 }
+
+/// A capsule dropped lengthwise onto a convex slab rests on both end spheres: level, at
+/// its radius above the slab, carrying its weight.
+#[test]
+fn a_capsule_rests_level_on_a_convex_slab() {
+    let slab: Vec<String> = (0..8)
+        .map(|k| {
+            let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
+            format!("[{}, {}, {}]", s(1, 0.5), s(2, 0.5), s(4, 0.05) - 0.05)
+        })
+        .collect();
+    let yaml = format!(
+        r#"
+duration: 1 s
+integrator: {{ h: 1 ms, solver: {{ tolerance: 1e-12 }} }}
+bodies:
+  - {{ name: rod, mass: 0.5 kg, shape: {{ cylinder: {{ radius: 20 mm, length: 0.3 }} }}, orientation: {{ axis: [0, 1, 0], angle: 90 deg }}, position: [0.05, 0.1, 0.0205] }}
+contacts:
+  - name: seat
+    body: rod
+    shape: {{ capsule: {{ radius: 20 mm, length: 0.3 }} }}
+    against_shape: {{ convex: {{ vertices: [{}] }} }}
+    mu: 0.3
+probes:
+  - {{ name: weight, measure: {{ contact_force: seat }}, reduce: mean, from: 0.5 s }}
+"#,
+        slab.join(", ")
+    );
+    let scene = Scene::from_yaml(&yaml, "rod").unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = scene.simulation().unwrap();
+    sim.run_until(1.0, |_, _| {}).unwrap();
+    let axis = sim.state.poses[0].p * Vector3::z();
+    assert!(axis.z.abs() < 1e-9, "tilt {:e}", axis.z);
+    assert!(
+        (sim.state.poses[0].x.z - 0.02).abs() < 1e-10,
+        "{}",
+        sim.state.poses[0].x.z
+    );
+    let o = Subject::from_yaml(&yaml, "rod").unwrap().run(&[], &[0]);
+    assert!(
+        (o.outputs[0] / (0.5 * G) - 1.0).abs() < 1e-9,
+        "{} N",
+        o.outputs[0]
+    );
+}

@@ -187,6 +187,34 @@ impl ConvexPart {
     }
 }
 
+impl ConvexPart {
+    /// The deepest (or closest) pair of points between the segment `a`–`b` (inertial) and
+    /// this part at `pose`, by parry's GJK/EPA, as a contact with the segment as body 1:
+    /// the point on the segment, the point on the part, the normal from the part towards
+    /// the segment and the signed distance (the rounding not taken off).
+    pub fn deepest_to_segment(
+        &self,
+        pose: &crate::mechanics::Pose,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+    ) -> Option<super::ContactGeometry> {
+        let local = |x: &Vector3<f64>| to_parry(&pose.p.inverse_transform_vector(&(x - pose.x)));
+        let segment = parry3d_f64::shape::Segment::new(local(a), local(b));
+        let c = parry3d_f64::query::details::contact_support_map_support_map(
+            &parry3d_f64::math::Pose::IDENTITY,
+            &segment,
+            &self.shape,
+            f64::MAX,
+        )?;
+        Some(super::ContactGeometry {
+            gap: c.dist,
+            normal: -pose.dir(&from_parry(c.normal1)),
+            point1: pose.point(&from_parry(c.point1)),
+            point2: pose.point(&from_parry(c.point2)),
+        })
+    }
+}
+
 /// The surface point `point` closest to the outside point `x`: on a face (its `plane`
 /// given) the normal is the face's, exact however close `x` is; on an edge or a vertex it
 /// is the direction from the point to `x`.
@@ -336,7 +364,11 @@ mod tests {
         let pair = ContactPair::new("x", Some(0), cube(), Some(1), cube(), 0.0, 0.0).unwrap();
         let gaps: Vec<f64> = (0..17).map(|k| pair.evaluate(k, &poses).gap()).collect();
         assert_eq!(gaps[16], crate::mechanics::contact::profile::OUT_OF_REACH);
-        assert_eq!(gaps.iter().filter(|g| g.abs() < 1e-12).count(), 1, "{gaps:?}");
+        assert_eq!(
+            gaps.iter().filter(|g| g.abs() < 1e-12).count(),
+            1,
+            "{gaps:?}"
+        );
     }
 
     /// The signed distance of points to a tetrahedron against the planes and a brute-force
@@ -442,5 +474,74 @@ mod tests {
         let g = edges.evaluate(16, &poses);
         assert!((g.gap() - (0.05 - 2.0 * r)).abs() < 1e-9, "{}", g.gap());
         assert!((g.geometry.point1 - g.geometry.point2).norm() - g.gap() < 1e-9);
+    }
+    /// A capsule lying on a cube's face touches with both end spheres; lying across a
+    /// narrow beam it touches with the middle of its axis, which the deepest point finds;
+    /// a cube's corner pressed on its side is that vertex's candidate.
+    #[test]
+    fn a_capsule_meets_a_convex_part_at_its_ends_its_middle_and_its_side() {
+        let capsule = Primitive::Capsule {
+            center: Vector3::zeros(),
+            axis: Vector3::x(),
+            radius: 0.05,
+            half_length: 0.3,
+        };
+        let at = |x: Vector3<f64>| Pose {
+            x,
+            p: UnitQuaternion::identity(),
+        };
+        let pair = |part: Primitive| {
+            ContactPair::new("c", Some(0), capsule.clone(), Some(1), part, 0.0, 0.0).unwrap()
+        };
+        let gaps = |pair: &ContactPair, poses: &[Pose]| -> Vec<f64> {
+            (0..pair.candidates())
+                .map(|k| pair.evaluate(k, poses).gap())
+                .collect()
+        };
+        // a 2 m slab, its top at z = 0.5: both ends 0.01 above it
+        let slab: Vec<Vector3<f64>> = (0..8)
+            .map(|k| {
+                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
+                Vector3::new(s(1, 1.0), s(2, 1.0), s(4, 0.5))
+            })
+            .collect();
+        let on_slab = pair(Primitive::Convex(Box::new(
+            ConvexPart::new(&slab, true).unwrap(),
+        )));
+        assert_eq!(on_slab.candidates(), 11);
+        let g = gaps(
+            &on_slab,
+            &[at(Vector3::new(0.0, 0.0, 0.56)), Pose::identity()],
+        );
+        assert!(
+            (g[0] - 0.01).abs() < 1e-15 && (g[1] - 0.01).abs() < 1e-15,
+            "{g:?}"
+        );
+        // across a beam 0.2 wide: only the middle touches
+        let beam: Vec<Vector3<f64>> = (0..8)
+            .map(|k| {
+                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
+                Vector3::new(s(1, 0.1), s(2, 1.0), s(4, 0.5))
+            })
+            .collect();
+        let across = pair(Primitive::Convex(Box::new(
+            ConvexPart::new(&beam, true).unwrap(),
+        )));
+        let g = gaps(
+            &across,
+            &[at(Vector3::new(0.0, 0.0, 0.56)), Pose::identity()],
+        );
+        let ends_and_vertices = g[..10].iter().cloned().fold(f64::MAX, f64::min);
+        assert!(ends_and_vertices > 0.05, "{g:?}");
+        assert!((g[10] - 0.01).abs() < 1e-9, "{g:?}");
+        // a cube's corner 0.02 below the capsule's side
+        let cube_pose = Pose {
+            x: Vector3::new(0.1, 0.0, -0.07 - 0.5 * 3f64.sqrt()),
+            p: UnitQuaternion::rotation_between(&Vector3::repeat(1.0), &Vector3::z()).unwrap(),
+        };
+        let corner = pair(cube());
+        let g = gaps(&corner, &[at(Vector3::zeros()), cube_pose]);
+        let least = g.iter().cloned().fold(f64::MAX, f64::min);
+        assert!((least - 0.02).abs() < 1e-12, "{g:?}");
     }
 }

@@ -122,9 +122,13 @@ impl ContactPair {
     ) -> Result<Self, String> {
         let goes_second = |s: &Primitive, other: &Primitive| match s {
             Primitive::Plane { .. } => !matches!(other, Primitive::Plane { .. }),
-            Primitive::Box { .. } | Primitive::Convex(_) => {
+            Primitive::Box { .. } => {
                 matches!(other, Primitive::Sphere { .. } | Primitive::Point { .. })
             }
+            Primitive::Convex(_) => matches!(
+                other,
+                Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Capsule { .. }
+            ),
             Primitive::Profile(_) => !matches!(other, Primitive::Profile(_)),
             Primitive::Mesh(_) => !matches!(other, Primitive::Mesh(_) | Primitive::Plane { .. }),
             _ => false,
@@ -161,6 +165,7 @@ impl ContactPair {
                     Primitive::Convex(_),
                     Primitive::Convex(_) | Primitive::Mesh(_)
                 )
+                | (Primitive::Capsule { .. }, Primitive::Convex(_))
                 | (
                     Primitive::Sphere { .. }
                         | Primitive::Box { .. }
@@ -173,7 +178,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; capsule against a convex part; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
                 shape1.kind(),
                 shape2.kind()
             ));
@@ -199,6 +204,7 @@ impl ContactPair {
             (pin, Primitive::Profile(p)) => p.candidate_count(pin.pin_faces()),
             (Primitive::Convex(a), Primitive::Convex(b)) => a.vertices.len() + b.vertices.len() + 1,
             (Primitive::Convex(a), Primitive::Mesh(_)) => a.vertices.len(),
+            (Primitive::Capsule { .. }, Primitive::Convex(b)) => b.vertices.len() + 3,
             (_, Primitive::Convex(_) | Primitive::Mesh(_)) => 1,
             (s1, _) => s1.candidate_count(),
         }

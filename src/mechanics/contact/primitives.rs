@@ -208,6 +208,80 @@ fn against_surface(
     }
 }
 
+/// Candidate `k` of a capsule (its axis `a`–`b`, radius `r`) against a convex part: its
+/// two end spheres; each vertex of the part against the capsule; and the deepest point of
+/// the axis and the part (GJK/EPA) where it is neither an end nor a vertex, as where the
+/// capsule lies across an edge or a narrow face.
+fn capsule_convex(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    r: f64,
+    part: &ConvexPart,
+    pose: &Pose,
+    k: usize,
+) -> ContactGeometry {
+    let n = part.vertices.len();
+    let on_axis = |x: &Vector3<f64>| {
+        let d = b - a;
+        a + d * ((x - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+    };
+    let far = ContactGeometry {
+        gap: OUT_OF_REACH,
+        normal: Vector3::z(),
+        point1: *a,
+        point2: *a,
+    };
+    let g = match k {
+        0 | 1 => {
+            let x = if k == 0 { *a } else { *b };
+            let s = part.surface(&pose.p.inverse_transform_vector(&(x - pose.x)));
+            ContactGeometry {
+                gap: s.distance,
+                normal: pose.dir(&s.normal),
+                point1: x,
+                point2: pose.point(&s.point),
+            }
+        }
+        k if k < 2 + n => {
+            let v = pose.point(&part.vertices[k - 2]);
+            let p = on_axis(&v);
+            let d = (p - v).norm();
+            if d == 0.0 {
+                return far;
+            }
+            ContactGeometry {
+                gap: d,
+                normal: (p - v) / d,
+                point1: p,
+                point2: v,
+            }
+        }
+        _ => {
+            let Some(g) = part.deepest_to_segment(pose, a, b) else {
+                return far;
+            };
+            let scale = part.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+            let tol = 1e-9 * scale.max((b - a).norm());
+            let at_end = (g.point1 - a).norm() <= tol || (g.point1 - b).norm() <= tol;
+            let at_vertex = part
+                .vertices
+                .iter()
+                .any(|v| (pose.point(v) - g.point2).norm() <= tol);
+            if at_end || at_vertex {
+                return far;
+            }
+            g
+        }
+    };
+    // the capsule's surface lies r in from its axis, the rounded part's its rounding out
+    ContactGeometry {
+        gap: g.gap - r - part.rounding,
+        point1: g.point1 - g.normal * r,
+        point2: g.point2 + g.normal * part.rounding,
+        ..g
+    }
+}
+
 /// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
 /// against `a`, or (the last) the deepest point of the two by GJK/EPA, which holds what no
 /// vertex sees: two edges crossing, or an edge lying across a face it overhangs. Where
@@ -398,6 +472,19 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
             against_surface(p1.point(&a.vertices[k]), a.rounding, solid, p2)
         }
         (Primitive::Convex(a), Primitive::Convex(b)) => convex_convex(a, p1, b, p2, k),
+        (
+            Primitive::Capsule {
+                center,
+                axis,
+                radius,
+                half_length,
+            },
+            Primitive::Convex(b),
+        ) => {
+            let along = p1.dir(&axis.normalize()) * *half_length;
+            let (c, r) = (p1.point(center), *radius);
+            capsule_convex(&(c - along), &(c + along), r, b, p2, k)
+        }
         _ => unreachable!("unsupported pairs are rejected by ContactPair::new"),
     }
 }
