@@ -517,6 +517,21 @@ mod tests {
             (g[0] - 0.01).abs() < 1e-15 && (g[1] - 0.01).abs() < 1e-15,
             "{g:?}"
         );
+        // the same slab as a box: taken as the convex part of its corners
+        let on_box = pair(Primitive::Box {
+            center: Vector3::zeros(),
+            rotation: UnitQuaternion::identity(),
+            half_extents: Vector3::new(1.0, 1.0, 0.5),
+        });
+        assert_eq!(on_box.candidates(), 11);
+        let h = gaps(
+            &on_box,
+            &[at(Vector3::new(0.0, 0.0, 0.56)), Pose::identity()],
+        );
+        assert!(
+            (h[0] - 0.01).abs() < 1e-15 && (h[1] - 0.01).abs() < 1e-15,
+            "{h:?}"
+        );
         // across a beam 0.2 wide: only the middle touches
         let beam: Vec<Vector3<f64>> = (0..8)
             .map(|k| {

@@ -122,10 +122,7 @@ impl ContactPair {
     ) -> Result<Self, String> {
         let goes_second = |s: &Primitive, other: &Primitive| match s {
             Primitive::Plane { .. } => !matches!(other, Primitive::Plane { .. }),
-            Primitive::Box { .. } => {
-                matches!(other, Primitive::Sphere { .. } | Primitive::Point { .. })
-            }
-            Primitive::Convex(_) => matches!(
+            Primitive::Box { .. } | Primitive::Convex(_) => matches!(
                 other,
                 Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Capsule { .. }
             ),
@@ -138,13 +135,14 @@ impl ContactPair {
         } else {
             (body1, shape1, body2, shape2)
         };
-        // a box meeting a convex part or a mesh is taken as the convex part it is
+        // a box meeting a convex part, a mesh or a capsule is taken as the convex part it is
         let polyhedral = |s: &Primitive| matches!(s, Primitive::Convex(_) | Primitive::Mesh(_));
         let (shape1, shape2) = match (shape1, shape2) {
             (b @ Primitive::Box { .. }, other) if polyhedral(&other) => (b.into_convex(), other),
-            (Primitive::Convex(c), b @ Primitive::Box { .. }) => {
-                (Primitive::Convex(c), b.into_convex())
-            }
+            (
+                s1 @ (Primitive::Convex(_) | Primitive::Capsule { .. }),
+                b @ Primitive::Box { .. },
+            ) => (s1, b.into_convex()),
             pair => pair,
         };
         let supported = matches!(
@@ -178,7 +176,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; capsule against a convex part; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; capsule against a box or a convex part; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
                 shape1.kind(),
                 shape2.kind()
             ));
