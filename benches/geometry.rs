@@ -92,6 +92,12 @@ fn evaluations(c: &mut Criterion) {
         radius: 0.005,
         half_length: 0.01,
     };
+    let capsule = Primitive::Capsule {
+        center: Vector3::zeros(),
+        axis: Vector3::z(),
+        radius: 0.005,
+        half_length: 0.01,
+    };
     let boxed = Primitive::Box {
         center: Vector3::zeros(),
         rotation: UnitQuaternion::identity(),
@@ -120,6 +126,7 @@ fn evaluations(c: &mut Criterion) {
         ("convex-plane", convex_box(), plane.clone()),
         ("sphere-convex", sphere.clone(), convex_box()),
         ("convex-convex", convex_box(), convex_box()),
+        ("capsule-convex", capsule.clone(), convex_box()),
         ("sphere-mesh", sphere.clone(), mesh_floor()),
         ("convex-mesh", convex_box(), mesh_floor()),
     ];

@@ -115,6 +115,12 @@ impl ConvexPart {
         })
     }
 
+    /// The distance of its farthest vertex from its body's origin: the length scale of
+    /// its tolerances.
+    pub fn size(&self) -> f64 {
+        self.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max)
+    }
+
     /// The same hull with its edges and corners rounded by `radius`.
     pub fn rounded(self, radius: f64) -> ConvexPart {
         ConvexPart {

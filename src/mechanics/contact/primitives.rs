@@ -210,7 +210,7 @@ fn against_surface(
 
 /// Candidate `k` of a capsule (its axis `a`–`b`, radius `r`) against a convex part: its
 /// two end spheres; each vertex of the part against the capsule; and the deepest point of
-/// the axis and the part (GJK/EPA) where it is neither an end nor a vertex, as where the
+/// the axis and the part (GJK/EPA) where it is deeper than all of those, as where the
 /// capsule lies across an edge or a narrow face.
 fn capsule_convex(
     a: &Vector3<f64>,
@@ -260,14 +260,11 @@ fn capsule_convex(
             let Some(g) = part.deepest_to_segment(pose, a, b) else {
                 return far;
             };
-            let scale = part.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
-            let tol = 1e-9 * scale.max((b - a).norm());
-            let at_end = (g.point1 - a).norm() <= tol || (g.point1 - b).norm() <= tol;
-            let at_vertex = part
-                .vertices
-                .iter()
-                .any(|v| (pose.point(v) - g.point2).norm() <= tol);
-            if at_end || at_vertex {
+            let others = (0..2 + n)
+                .map(|j| capsule_convex(a, b, r, part, pose, j).gap)
+                .fold(f64::MAX, f64::min);
+            let tol = 1e-9 * part.size().max((b - a).norm());
+            if g.gap - r - part.rounding >= others - tol {
                 return far;
             }
             g
@@ -284,10 +281,10 @@ fn capsule_convex(
 
 /// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
 /// against `a`, or (the last) the deepest point of the two by GJK/EPA, which holds what no
-/// vertex sees: two edges crossing, or an edge lying across a face it overhangs. Where
-/// that point is a vertex of either, its vertex candidate already holds it, and this one
-/// is out of reach; elsewhere, between two faces resting on each other, it is one more
-/// point of their contact.
+/// vertex sees: two edges crossing, or an edge lying across a face it overhangs. It is in
+/// play only where it is deeper than every vertex candidate: elsewhere (a vertex on a
+/// face, two faces resting on each other) it would repeat them, and a redundant point
+/// wandering over a resting face leaves its friction without a unique solution.
 fn convex_convex(
     a: &ConvexPart,
     p1: &Pose,
@@ -346,13 +343,10 @@ fn sharp_convex_convex(
     let Some(deepest) = a.deepest(p1, b, p2) else {
         return far;
     };
-    let near_vertex = |part: &ConvexPart, pose: &Pose, x: &Vector3<f64>| {
-        let scale = part.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
-        part.vertices
-            .iter()
-            .any(|v| (pose.point(v) - x).norm() <= 1e-9 * scale)
-    };
-    if near_vertex(a, p1, &deepest.point1) || near_vertex(b, p2, &deepest.point2) {
+    let others = (0..na + nb)
+        .map(|j| sharp_convex_convex(a, p1, b, p2, j).gap)
+        .fold(f64::MAX, f64::min);
+    if deepest.gap >= others - 1e-9 * a.size().max(b.size()) {
         return far;
     }
     deepest
