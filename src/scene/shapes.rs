@@ -1,5 +1,5 @@
-//! Contact pairs: the primitive shapes (sphere, plane, box, cylinder, capsule, point,
-//! profile) on two bodies, with their friction and restitution.
+//! Contact pairs: the shapes (sphere, plane, box, cylinder, capsule, point, profile,
+//! convex part, mesh) on two bodies, with their friction and restitution.
 
 use super::error::{line, SceneError};
 use super::fields::{
