@@ -32,6 +32,12 @@ impl Pose {
         self.x + self.p * local
     }
 
+    /// Body coordinates of the inertial point `x`: the inverse of `point`.
+    #[inline]
+    pub fn local(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.p.inverse_transform_vector(&(x - self.x))
+    }
+
     /// Inertial direction of the body-frame vector `local`.
     #[inline]
     pub fn dir(&self, local: &Vector3<f64>) -> Vector3<f64> {

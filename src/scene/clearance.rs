@@ -54,9 +54,9 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
             let axis = unit_vec3(axis, &f("axis"))?;
             let (pa, pb) = (pose(a), pose(b));
             (
-                pa.p.inverse_transform_vector(&(anchor - pa.x)),
+                pa.local(&anchor),
                 pa.p.inverse_transform_vector(&axis),
-                pb.p.inverse_transform_vector(&(anchor - pb.x)),
+                pb.local(&anchor),
                 pb.p.inverse_transform_vector(&axis),
             )
         } else {

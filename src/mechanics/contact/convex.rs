@@ -171,7 +171,7 @@ impl ConvexPart {
     ) -> Option<super::ContactGeometry> {
         // other's frame relative to ours: pos12 maps other's local points into ours
         let rel_q = p1.p.inverse() * p2.p;
-        let rel_x = p1.p.inverse_transform_vector(&(p2.x - p1.x));
+        let rel_x = p1.local(&p2.x);
         let q = rel_q.quaternion();
         let pos12 = parry3d_f64::math::Pose::from_parts(
             to_parry(&rel_x),
@@ -204,7 +204,7 @@ impl ConvexPart {
         a: &Vector3<f64>,
         b: &Vector3<f64>,
     ) -> Option<super::ContactGeometry> {
-        let local = |x: &Vector3<f64>| to_parry(&pose.p.inverse_transform_vector(&(x - pose.x)));
+        let local = |x: &Vector3<f64>| to_parry(&pose.local(x));
         let segment = parry3d_f64::shape::Segment::new(local(a), local(b));
         let c = parry3d_f64::query::details::contact_support_map_support_map(
             &parry3d_f64::math::Pose::IDENTITY,

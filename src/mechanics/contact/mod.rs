@@ -340,10 +340,7 @@ mod tests {
         let u = cp.local_velocity(&v);
         // material points of each body at the current contact point 1
         let x = cp.geometry.point1;
-        let loc: Vec<Vector3<f64>> = poses
-            .iter()
-            .map(|p| p.p.inverse_transform_vector(&(x - p.x)))
-            .collect();
+        let loc: Vec<Vector3<f64>> = poses.iter().map(|p| p.local(&x)).collect();
         let eps = 1e-7;
         let moved: Vec<Vector3<f64>> = (0..2)
             .map(|b| {

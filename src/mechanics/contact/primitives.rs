@@ -178,7 +178,7 @@ fn sphere_box(
 /// The surface of a convex part or mesh (on a body at `pose`) nearest to the inertial
 /// point `x`.
 fn surface_of(solid: &Primitive, pose: &Pose, x: &Vector3<f64>) -> Surface {
-    let local = pose.p.inverse_transform_vector(&(x - pose.x));
+    let local = pose.local(x);
     match solid {
         Primitive::Convex(c) => c.surface(&local),
         Primitive::Mesh(m) => m.surface(&local),
@@ -234,7 +234,7 @@ fn capsule_convex(
     let g = match k {
         0 | 1 => {
             let x = if k == 0 { *a } else { *b };
-            let s = part.surface(&pose.p.inverse_transform_vector(&(x - pose.x)));
+            let s = part.surface(&pose.local(&x));
             ContactGeometry {
                 gap: s.distance,
                 normal: pose.dir(&s.normal),
@@ -316,7 +316,7 @@ fn sharp_convex_convex(
     let (na, nb) = (a.vertices.len(), b.vertices.len());
     if k < na {
         let x = p1.point(&a.vertices[k]);
-        let s = b.surface(&p2.p.inverse_transform_vector(&(x - p2.x)));
+        let s = b.surface(&p2.local(&x));
         return ContactGeometry {
             gap: s.distance,
             normal: p2.dir(&s.normal),
@@ -326,7 +326,7 @@ fn sharp_convex_convex(
     }
     if k < na + nb {
         let y = p2.point(&b.vertices[k - na]);
-        let s = a.surface(&p1.p.inverse_transform_vector(&(y - p1.x)));
+        let s = a.surface(&p1.local(&y));
         return ContactGeometry {
             gap: s.distance,
             normal: -p1.dir(&s.normal),

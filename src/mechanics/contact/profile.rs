@@ -1111,8 +1111,7 @@ mod tests {
             };
             // the tooth's outline in the latch's plane coordinates
             let in_latch = |q: Vector2<f64>| {
-                let w =
-                    pb.p.inverse_transform_vector(&(pa.point(&Vector3::new(q.x, q.y, 0.0)) - pb.x));
+                let w = pb.local(&pa.point(&Vector3::new(q.x, q.y, 0.0)));
                 v(w.x, w.y)
             };
             let dist = |q: Vector2<f64>| latch.distance(&in_latch(q)).unwrap();
