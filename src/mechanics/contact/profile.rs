@@ -105,6 +105,18 @@ fn cross(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
+/// The angle (> 0) an arc turns through from the radius `s` to the radius `e`, in the
+/// sense `ccw`; an arc back to its start turns a full circle.
+fn sweep(s: &Vector2<f64>, e: &Vector2<f64>, ccw: bool) -> f64 {
+    let turn = if ccw { 1.0 } else { -1.0 };
+    let sweep = (turn * cross(s, e)).atan2(s.dot(e));
+    if sweep <= 1e-12 {
+        sweep + TAU
+    } else {
+        sweep
+    }
+}
+
 /// The left normal of a direction.
 fn left(t: &Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-t.y, t.x)
@@ -209,10 +221,7 @@ impl Profile {
                     let s = (from - center) / r0;
                     let e = (to - center) / r0;
                     let turn = if *ccw { 1.0 } else { -1.0 };
-                    let mut sweep = (turn * cross(&s, &e)).atan2(s.dot(&e));
-                    if sweep <= 1e-12 {
-                        sweep += TAU;
-                    }
+                    let sweep = sweep(&s, &e, *ccw);
                     // walking counter-clockwise the centre is on the left
                     let side = -sign * turn;
                     let tangent_at = |u: &Vector2<f64>| left(u) * turn;
@@ -692,12 +701,8 @@ fn signed_area(start: Vector2<f64>, pieces: &[Piece]) -> f64 {
             Piece::Arc { to, center, ccw } => {
                 // chord, plus the circular segment between chord and arc
                 let r = (from - center).norm();
-                let (s, e) = (from - center, to - center);
                 let turn = if *ccw { 1.0 } else { -1.0 };
-                let mut sweep = (turn * cross(&s, &e)).atan2(s.dot(&e));
-                if sweep <= 1e-12 {
-                    sweep += TAU;
-                }
+                let sweep = sweep(&(from - center), &(to - center), *ccw);
                 area += cross(&from, to) + turn * r * r * (sweep - sweep.sin());
                 from = *to;
             }
@@ -779,28 +784,32 @@ mod tests {
     /// search around the best sample of each piece.
     fn sampled_distance(c: &Vector2<f64>, pieces: &[Box<dyn Fn(f64) -> Vector2<f64>>]) -> f64 {
         let n = 100_000 / pieces.len();
-        let mut best = f64::MAX;
-        for f in pieces {
-            let d = |t: f64| (f(t) - c).norm();
-            let i = (0..=n)
-                .min_by(|&a, &b| d(a as f64 / n as f64).total_cmp(&d(b as f64 / n as f64)))
-                .unwrap();
-            let (mut lo, mut hi) = (
-                (i as f64 - 1.0).max(0.0) / n as f64,
-                (i as f64 + 1.0).min(n as f64) / n as f64,
-            );
-            let g = 0.5 * (5f64.sqrt() - 1.0);
-            while hi - lo > 1e-15 {
-                let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-                if d(a) < d(b) {
-                    hi = b;
-                } else {
-                    lo = a;
-                }
+        pieces
+            .iter()
+            .map(|f| sampled_minimum(|t| (f(t) - c).norm(), n))
+            .fold(f64::MAX, f64::min)
+    }
+
+    /// The smallest value of `d` on [0, 1]: the best of `n` + 1 samples, refined by a
+    /// golden-section search between its neighbours, and the two ends.
+    fn sampled_minimum(d: impl Fn(f64) -> f64, n: usize) -> f64 {
+        let i = (0..=n)
+            .min_by(|&a, &b| d(a as f64 / n as f64).total_cmp(&d(b as f64 / n as f64)))
+            .unwrap();
+        let (mut lo, mut hi) = (
+            (i as f64 - 1.0).max(0.0) / n as f64,
+            (i as f64 + 1.0).min(n as f64) / n as f64,
+        );
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        while hi - lo > 1e-15 {
+            let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if d(a) < d(b) {
+                hi = b;
+            } else {
+                lo = a;
             }
-            best = best.min(d(0.5 * (lo + hi))).min(d(0.0)).min(d(1.0));
         }
-        best
+        d(0.5 * (lo + hi)).min(d(0.0)).min(d(1.0))
     }
 
     /// Whether `c` is inside the closed path (even–odd rule on a fine polygon).
@@ -1115,28 +1124,10 @@ mod tests {
                 v(w.x, w.y)
             };
             let dist = |q: Vector2<f64>| latch.distance(&in_latch(q)).unwrap();
-            let mut exact = f64::MAX;
-            for f in &tooth_pieces {
-                let n = 2000;
-                let d = |t: f64| dist(f(t));
-                let best = (0..=n)
-                    .min_by(|&a, &b| d(a as f64 / n as f64).total_cmp(&d(b as f64 / n as f64)))
-                    .unwrap();
-                let (mut lo, mut hi) = (
-                    (best as f64 - 1.0).max(0.0) / n as f64,
-                    (best as f64 + 1.0).min(n as f64) / n as f64,
-                );
-                let g = 0.5 * (5f64.sqrt() - 1.0);
-                while hi - lo > 1e-15 {
-                    let (a, b) = (hi - g * (hi - lo), lo + g * (hi - lo));
-                    if d(a) < d(b) {
-                        hi = b;
-                    } else {
-                        lo = a;
-                    }
-                }
-                exact = exact.min(d(0.5 * (lo + hi))).min(d(0.0)).min(d(1.0));
-            }
+            let exact = tooth_pieces
+                .iter()
+                .map(|f| sampled_minimum(|t| dist(f(t)), 2000))
+                .fold(f64::MAX, f64::min);
             // apart only: the latch's exact distance then bounds the outlines' distance
             let apart = tooth_pieces
                 .iter()
