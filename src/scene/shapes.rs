@@ -9,7 +9,7 @@ use super::fields::{
 use super::schema::{ContactSpec, Name, PieceSpec, PrimitiveSpec, ProfileSpec, Vector, Q};
 use super::units::Dim;
 use crate::mechanics::contact::convex::ConvexPart;
-use crate::mechanics::contact::mesh::MeshPart;
+use crate::mechanics::contact::mesh::{self, MeshPart};
 use crate::mechanics::contact::profile::{Piece as ProfilePiece, Profile, Solid};
 use crate::mechanics::{ContactPair, Model, Primitive};
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
@@ -140,9 +140,8 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
                     .collect::<R<Vec<_>>>()?,
                 (None, Some(name)) => {
                     let (vertices, triangles) = read_mesh(name, scale, file, &fl("convex"))?;
-                    let mesh = MeshPart::new(vertices.clone(), triangles)
-                        .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
-                    check_convex(&mesh)
+                    mesh::check(&vertices, &triangles)
+                        .and_then(|()| mesh::check_convex(&vertices, &triangles))
                         .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
                     vertices
                 }
@@ -201,25 +200,6 @@ fn read_mesh(
         .join(&name.value);
     super::mesh_file::read(&path, scale)
         .map_err(|m| SceneError::at(line(name), format!("{field}.file"), m))
-}
-
-/// A closed mesh is convex when every vertex lies on or behind every triangle's plane.
-fn check_convex(mesh: &MeshPart) -> Result<(), String> {
-    let scale = mesh.vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
-    for (k, t) in mesh.triangles.iter().enumerate() {
-        let [a, b, c] = t.map(|i| mesh.vertices[i]);
-        let n = (b - a).cross(&(c - a)).normalize();
-        if let Some(v) = mesh
-            .vertices
-            .iter()
-            .position(|v| n.dot(&(v - a)) > 1e-9 * scale)
-        {
-            return Err(format!(
-                "the mesh is not convex: vertex {v} lies outside the plane of triangle {k}"
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// A point of a profile's plane.

@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::FeatureId;
 use parry3d_f64::shape::{TriMesh, TriMeshFlags};
-use std::collections::HashMap;
+use std::collections::HashSet;
 
 #[derive(Clone)]
 pub struct MeshPart {
@@ -36,36 +36,56 @@ impl PartialEq for MeshPart {
     }
 }
 
-impl MeshPart {
-    /// Checks and indexes a mesh: no degenerate triangle, every edge shared by at most two
-    /// triangles, and those two wound consistently (an edge walked once each way).
-    pub fn new(vertices: Vec<Vector3<f64>>, triangles: Vec<[usize; 3]>) -> Result<Self, String> {
-        if triangles.is_empty() {
-            return Err("the mesh has no triangles".into());
+/// Checks a mesh: no degenerate triangle, every edge shared by at most two triangles,
+/// and those two wound consistently (an edge walked once each way; three triangles on one
+/// edge walk it twice the same way).
+pub fn check(vertices: &[Vector3<f64>], triangles: &[[usize; 3]]) -> Result<(), String> {
+    if triangles.is_empty() {
+        return Err("the mesh has no triangles".into());
+    }
+    let scale = vertices.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let mut edges: HashSet<(usize, usize)> = HashSet::new();
+    for (k, t) in triangles.iter().enumerate() {
+        if let Some(&i) = t.iter().find(|&&i| i >= vertices.len()) {
+            return Err(format!(
+                "triangle {k} names vertex {i}, which does not exist"
+            ));
         }
-        let scale = vertices.iter().map(|p| p.norm()).fold(0.0, f64::max);
-        let mut edges: HashMap<(usize, usize), usize> = HashMap::new();
-        for (k, t) in triangles.iter().enumerate() {
-            if let Some(&i) = t.iter().find(|&&i| i >= vertices.len()) {
+        let [a, b, c] = t.map(|i| vertices[i]);
+        if (b - a).cross(&(c - a)).norm() <= 1e-12 * scale * scale {
+            return Err(format!("triangle {k} is degenerate (zero area)"));
+        }
+        for (i, j) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            if !edges.insert((i, j)) {
                 return Err(format!(
-                    "triangle {k} names vertex {i}, which does not exist"
+                    "the mesh is not manifold or not consistently wound: edge {i}–{j} is walked twice the same way (triangle {k})"
                 ));
             }
-            let [a, b, c] = t.map(|i| vertices[i]);
-            if (b - a).cross(&(c - a)).norm() <= 1e-12 * scale * scale {
-                return Err(format!("triangle {k} is degenerate (zero area)"));
-            }
-            for (i, j) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-                let n = edges.entry((i, j)).or_default();
-                *n += 1;
-                if *n > 1 {
-                    return Err(format!(
-                        "the mesh is not manifold or not consistently wound: edge {i}–{j} is walked twice the same way (triangle {k})"
-                    ));
-                }
-            }
         }
-        // three triangles on one edge walk it twice the same way: caught above
+    }
+    Ok(())
+}
+
+/// Checks that a closed, checked mesh is convex: every vertex on or behind every
+/// triangle's plane.
+pub fn check_convex(vertices: &[Vector3<f64>], triangles: &[[usize; 3]]) -> Result<(), String> {
+    let scale = vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    for (k, t) in triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|i| vertices[i]);
+        let n = (b - a).cross(&(c - a)).normalize();
+        if let Some(v) = vertices.iter().position(|v| n.dot(&(v - a)) > 1e-9 * scale) {
+            return Err(format!(
+                "the mesh is not convex: vertex {v} lies outside the plane of triangle {k}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl MeshPart {
+    /// Checks (`check`) and indexes a mesh.
+    pub fn new(vertices: Vec<Vector3<f64>>, triangles: Vec<[usize; 3]>) -> Result<Self, String> {
+        check(&vertices, &triangles)?;
         let mesh = TriMesh::with_flags(
             vertices.iter().map(to_parry).collect(),
             triangles.iter().map(|t| t.map(|i| i as u32)).collect(),
