@@ -183,17 +183,9 @@ impl ConvexPart {
             &other.shape,
             f64::MAX,
         )?;
-        // normal1 points out of this part towards the other; ours goes the other way
-        Some(super::ContactGeometry {
-            gap: c.dist,
-            normal: -p1.dir(&from_parry(c.normal1)),
-            point1: p1.point(&from_parry(c.point1)),
-            point2: p2.point(&from_parry(c.point2)),
-        })
+        Some(geometry(&c, p1, p2))
     }
-}
 
-impl ConvexPart {
     /// The deepest (or closest) pair of points between the segment `a`–`b` (inertial) and
     /// this part at `pose`, by parry's GJK/EPA, as a contact with the segment as body 1:
     /// the point on the segment, the point on the part, the normal from the part towards
@@ -212,12 +204,23 @@ impl ConvexPart {
             &self.shape,
             f64::MAX,
         )?;
-        Some(super::ContactGeometry {
-            gap: c.dist,
-            normal: -pose.dir(&from_parry(c.normal1)),
-            point1: pose.point(&from_parry(c.point1)),
-            point2: pose.point(&from_parry(c.point2)),
-        })
+        Some(geometry(&c, pose, pose))
+    }
+}
+
+/// A parry contact between shapes 1 and 2 (their points in their own frames, at poses `p1`
+/// and `p2`) as our geometry: parry's normal1 points out of shape 1 towards shape 2; ours,
+/// from body 2 towards body 1, the other way.
+fn geometry(
+    c: &parry3d_f64::query::Contact,
+    p1: &crate::mechanics::Pose,
+    p2: &crate::mechanics::Pose,
+) -> super::ContactGeometry {
+    super::ContactGeometry {
+        gap: c.dist,
+        normal: -p1.dir(&from_parry(c.normal1)),
+        point1: p1.point(&from_parry(c.point1)),
+        point2: p2.point(&from_parry(c.point2)),
     }
 }
 
