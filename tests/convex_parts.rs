@@ -14,14 +14,26 @@ use std::path::Path;
 const G: f64 = 9.81;
 const SIZE: [f64; 3] = [0.2, 0.2, 0.05];
 
-/// The 8 corners of the incline's block, as rows.
-fn corners() -> Vec<[f64; 3]> {
+/// The 8 corners of a box of half-sides `h` centred at `c`, corner k at +h along the axes
+/// whose bits (1, 2, 4) k has.
+fn box_corners(h: [f64; 3], c: [f64; 3]) -> Vec<[f64; 3]> {
     (0..8)
-        .map(|k| {
-            let s = |bit: usize, e: f64| if k & bit != 0 { 0.5 * e } else { -0.5 * e };
-            [s(1, SIZE[0]), s(2, SIZE[1]), s(4, SIZE[2])]
-        })
+        .map(|k| [0, 1, 2].map(|i| c[i] + if k & (1 << i) != 0 { h[i] } else { -h[i] }))
         .collect()
+}
+
+/// Corners as a YAML list of rows, for `convex: { vertices }`.
+fn rows(corners: &[[f64; 3]]) -> String {
+    let rows: Vec<String> = corners
+        .iter()
+        .map(|c| format!("[{}, {}, {}]", c[0], c[1], c[2]))
+        .collect();
+    rows.join(", ")
+}
+
+/// The 8 corners of the incline's block.
+fn corners() -> Vec<[f64; 3]> {
+    box_corners(SIZE.map(|e| 0.5 * e), [0.0; 3])
 }
 
 /// An ASCII STL of the block (mm), 12 outward triangles.
@@ -112,10 +124,6 @@ fn trajectory(mut sim: Simulation) -> (Vec<Vector3<f64>>, f64, f64) {
 fn a_box_given_as_a_convex_part_slides_and_stops_as_the_analytic_box() {
     let dir = scratch("convex_incline");
     std::fs::write(dir.join("block.stl"), block_stl()).unwrap();
-    let rows: Vec<String> = corners()
-        .iter()
-        .map(|c| format!("[{}, {}, {}]", c[0], c[1], c[2]))
-        .collect();
     let (reference, t_box, _) = trajectory(load(
         &dir,
         &incline_yaml("{ box: { size: [0.2, 0.2, 0.05] } }"),
@@ -123,7 +131,7 @@ fn a_box_given_as_a_convex_part_slides_and_stops_as_the_analytic_box() {
     let b = 20f64.to_radians();
     let t_star = 2.0 / (G * (0.5 * b.cos() - b.sin()));
     for shape in [
-        format!("{{ convex: {{ vertices: [{}] }} }}", rows.join(", ")),
+        format!("{{ convex: {{ vertices: [{}] }} }}", rows(&corners())),
         "{ convex: { file: block.stl, scale: 1 mm } }".to_string(),
     ] {
         let (xs, stop, creep) = trajectory(load(&dir, &incline_yaml(&shape)));
@@ -212,18 +220,8 @@ probes:
 /// face touches at the four corners) and the slab carries its weight.
 #[test]
 fn a_convex_cube_rests_flat_on_a_convex_slab() {
-    let cube: Vec<String> = (0..8)
-        .map(|k| {
-            let s = |bit: usize| if k & bit != 0 { 0.025 } else { -0.025 };
-            format!("[{}, {}, {}]", s(1), s(2), s(4))
-        })
-        .collect();
-    let slab: Vec<String> = (0..8)
-        .map(|k| {
-            let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
-            format!("[{}, {}, {}]", s(1, 0.2), s(2, 0.15), s(4, 0.01) - 0.01)
-        })
-        .collect();
+    let cube = rows(&box_corners([0.025; 3], [0.0; 3]));
+    let slab = rows(&box_corners([0.2, 0.15, 0.01], [0.0, 0.0, -0.01]));
     let yaml = format!(
         r#"
 duration: 1 s
@@ -240,8 +238,7 @@ probes:
   - {{ name: weight, measure: {{ contact_force: seat }}, reduce: mean, from: 0.5 s }}
   - {{ name: height, measure: {{ distance: {{ from: {{ body: ground }}, to: {{ body: cube }}, axis: [0, 0, 1] }} }} }}
 "#,
-        cube.join(", "),
-        slab.join(", ")
+        cube, slab
     );
     let scene = Scene::from_yaml(&yaml, "cube").unwrap_or_else(|e| panic!("{e}"));
     let mut sim = scene.simulation().unwrap();
@@ -344,12 +341,7 @@ fn bad_convex_parts_and_meshes_name_the_field() {
 /// its radius above the slab, carrying its weight.
 #[test]
 fn a_capsule_rests_level_on_a_convex_slab() {
-    let slab: Vec<String> = (0..8)
-        .map(|k| {
-            let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
-            format!("[{}, {}, {}]", s(1, 0.5), s(2, 0.5), s(4, 0.05) - 0.05)
-        })
-        .collect();
+    let slab = rows(&box_corners([0.5, 0.5, 0.05], [0.0, 0.0, -0.05]));
     let yaml = format!(
         r#"
 duration: 1 s
@@ -365,7 +357,7 @@ contacts:
 probes:
   - {{ name: weight, measure: {{ contact_force: seat }}, reduce: mean, from: 0.5 s }}
 "#,
-        slab.join(", ")
+        slab
     );
     let scene = Scene::from_yaml(&yaml, "rod").unwrap_or_else(|e| panic!("{e}"));
     let mut sim = scene.simulation().unwrap();
