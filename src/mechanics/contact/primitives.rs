@@ -199,12 +199,24 @@ fn against_surface(
         Primitive::Convex(c) => c.rounding,
         _ => 0.0,
     };
-    let normal = pose.dir(&s.normal);
+    let centre = ContactGeometry {
+        gap: s.distance,
+        normal: pose.dir(&s.normal),
+        point1: x,
+        point2: pose.point(&s.point),
+    };
+    inflated(centre, radius, rounding)
+}
+
+/// The contact of two shapes swept by spheres of radii `r1` (body 1's) and `r2`, from
+/// that of the shapes themselves: the gap falls by both, and each point moves out of its
+/// body along the normal.
+fn inflated(g: ContactGeometry, r1: f64, r2: f64) -> ContactGeometry {
     ContactGeometry {
-        gap: s.distance - radius - rounding,
-        normal,
-        point1: x - normal * radius,
-        point2: pose.point(&s.point) + normal * rounding,
+        gap: g.gap - r1 - r2,
+        point1: g.point1 - g.normal * r1,
+        point2: g.point2 + g.normal * r2,
+        ..g
     }
 }
 
@@ -270,13 +282,7 @@ fn capsule_convex(
             g
         }
     };
-    // the capsule's surface lies r in from its axis, the rounded part's its rounding out
-    ContactGeometry {
-        gap: g.gap - r - part.rounding,
-        point1: g.point1 - g.normal * r,
-        point2: g.point2 + g.normal * part.rounding,
-        ..g
-    }
+    inflated(g, r, part.rounding)
 }
 
 /// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
@@ -296,13 +302,7 @@ fn convex_convex(
     if g.gap == OUT_OF_REACH {
         return g;
     }
-    // the rounded parts' surfaces lie their radii out along the normal
-    ContactGeometry {
-        gap: g.gap - a.rounding - b.rounding,
-        point1: g.point1 - g.normal * a.rounding,
-        point2: g.point2 + g.normal * b.rounding,
-        ..g
-    }
+    inflated(g, a.rounding, b.rounding)
 }
 
 /// `convex_convex` for the hulls themselves, without their rounding.
