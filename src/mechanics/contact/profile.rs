@@ -440,7 +440,7 @@ impl Profile {
         let features = self.features.len();
         let (face, feature) = (k / features, k % features);
         let o = pose.point(&self.origin);
-        let [u, v, n] = self.axes.map(|a| pose.dir(&a));
+        let n = pose.dir(&self.axes[2]);
         let z_c = n.dot(&(pin.center - o));
         // the centre of the pin's section in contact plane `face`
         let section = match pin.axis {
@@ -471,30 +471,43 @@ impl Profile {
             lateral: None,
         };
         let Some(c3) = section else { return far };
-        let w = c3 - o;
-        let c = Vector2::new(u.dot(&w), v.dot(&w));
-        let Some(f) = self.in_play(feature, &c) else {
+        let Some((geometry, c)) = self.circle_against(pose, &c3, pin.radius, feature) else {
             return far;
         };
-        let normal = u * f.normal.x + v * f.normal.y;
-        let z = n.dot(&w);
-        let foot = o + u * f.at.x + v * f.at.y + n * z;
         let lateral = match &self.features[feature] {
             Feature::Arc { center, side, .. } if *side < 0.0 => {
                 let offset = (c - center).norm().max(1e-12);
-                Some((n.cross(&normal), c3, 1.0 / offset))
+                Some((n.cross(&geometry.normal), c3, 1.0 / offset))
             }
             _ => None,
         };
-        ProfileContact {
-            geometry: super::ContactGeometry {
-                gap: f.distance - pin.radius,
-                normal,
-                point1: c3 - normal * pin.radius,
-                point2: foot,
-            },
-            lateral,
-        }
+        ProfileContact { geometry, lateral }
+    }
+
+    /// A circle of `radius` centred at the inertial point `centre`, in a plane parallel to
+    /// this profile's (on a body at `pose`), against feature `k`: the contact (the normal
+    /// this feature's, towards the circle) and the centre in plane coordinates; `None`
+    /// where the feature is not in play.
+    fn circle_against(
+        &self,
+        pose: &Pose,
+        centre: &Vector3<f64>,
+        radius: f64,
+        k: usize,
+    ) -> Option<(super::ContactGeometry, Vector2<f64>)> {
+        let o = pose.point(&self.origin);
+        let [u, v, n] = self.axes.map(|a| pose.dir(&a));
+        let w = centre - o;
+        let c = Vector2::new(u.dot(&w), v.dot(&w));
+        let f = self.in_play(k, &c)?;
+        let normal = u * f.normal.x + v * f.normal.y;
+        let geometry = super::ContactGeometry {
+            gap: f.distance - radius,
+            normal,
+            point1: centre - normal * radius,
+            point2: o + u * f.at.x + v * f.at.y + n * n.dot(&w),
+        };
+        Some((geometry, c))
     }
 }
 
@@ -616,28 +629,20 @@ fn pin_on_profile(
     z: f64,
 ) -> Option<super::ContactGeometry> {
     let [up, vp, np] = p.axes.map(|a| pp.dir(&a));
-    let [uq, vq, nq] = q.axes.map(|a| pq.dir(&a));
+    let nq = pq.dir(&q.axes[2]);
     let oq = pq.point(&q.origin);
     let centre = pp.point(&p.origin) + up * pin.center.x + vp * pin.center.y;
     // onto the contact plane, along p's normal
     let along = np.dot(&nq);
     let centre = centre + np * ((z - nq.dot(&(centre - oq))) / along);
-    let w = centre - oq;
-    let c = Vector2::new(uq.dot(&w), vq.dot(&w));
-    let f = q.in_play(j, &c)?;
-    let normal = uq * f.normal.x + vq * f.normal.y;
+    let (g, _) = q.circle_against(pq, &centre, pin.radius, j)?;
     if let Some(arc) = pin.arc {
         // the touching point of the arc, in p's plane coordinates, must lie on the arc
-        let dir = -normal;
+        let dir = -g.normal;
         let d2 = Vector2::new(up.dot(&dir), vp.dot(&dir));
         p.foot(arc, &(pin.center + d2 * pin.radius))?;
     }
-    Some(super::ContactGeometry {
-        gap: f.distance - pin.radius,
-        normal,
-        point1: centre - normal * pin.radius,
-        point2: oq + uq * f.at.x + vq * f.at.y + nq * nq.dot(&w),
-    })
+    Some(g)
 }
 
 /// A pin against a profile, in the world: a point (radius 0), a sphere, or a cylinder
