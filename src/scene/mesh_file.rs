@@ -51,14 +51,7 @@ fn stl(bytes: &[u8]) -> Result<Soup, String> {
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         if words.next() == Some("vertex") {
-            let v: Vec<f64> = words
-                .map(|w| w.parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|e| format!("line {}: {e}", n + 1))?;
-            if v.len() != 3 {
-                return Err(format!("line {}: a vertex needs 3 coordinates", n + 1));
-            }
-            corners.push([v[0], v[1], v[2]]);
+            corners.push(coordinates(words, n + 1)?);
             if corners.len() == 3 {
                 soup.push([corners[0], corners[1], corners[2]]);
                 corners.clear();
@@ -71,6 +64,18 @@ fn stl(bytes: &[u8]) -> Result<Soup, String> {
     Ok(soup)
 }
 
+/// The three coordinates of a vertex from the words after its keyword, on line `line`.
+fn coordinates<'a>(words: impl Iterator<Item = &'a str>, line: usize) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = words
+        .map(|w| w.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("line {line}: {e}"))?;
+    match v[..] {
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(format!("line {line}: a vertex needs 3 coordinates")),
+    }
+}
+
 fn obj(bytes: &[u8]) -> Result<Soup, String> {
     let text = std::str::from_utf8(bytes).map_err(|_| "not a text OBJ file")?;
     let mut vertices: Vec<[f64; 3]> = Vec::new();
@@ -78,17 +83,8 @@ fn obj(bytes: &[u8]) -> Result<Soup, String> {
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         match words.next() {
-            Some("v") => {
-                let v: Vec<f64> = words
-                    .take(3)
-                    .map(|w| w.parse::<f64>())
-                    .collect::<Result<_, _>>()
-                    .map_err(|e| format!("line {}: {e}", n + 1))?;
-                if v.len() != 3 {
-                    return Err(format!("line {}: a vertex needs 3 coordinates", n + 1));
-                }
-                vertices.push([v[0], v[1], v[2]]);
-            }
+            // an OBJ vertex may carry a fourth, weight, coordinate
+            Some("v") => vertices.push(coordinates(words.take(3), n + 1)?),
             Some("f") => {
                 let idx: Vec<usize> = words
                     .map(|w| {
