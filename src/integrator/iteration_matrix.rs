@@ -19,16 +19,23 @@ use std::collections::BTreeMap;
 /// Relative finite-difference step for force-element Jacobians.
 const FD_STEP: f64 = 1e-6;
 
-// Most groups are single bodies: keeping their 6×6 inverse inline avoids an allocation per
-// body and Newton iteration. The blocks are inverted once per assembly: W⁻¹ is then applied
-// to the residual and to every active contact's Jacobian as a product, cheaper than the
-// triangular solves it replaces and equal to them up to round-off for a well-conditioned W
-// (M dominates it: on the circuit breaker the springs' h²θ²K and the gyroscopic hθ terms
-// are below 1e-3 of M).
+/// Bodies whose block of W is inverted together. Most groups are single bodies: keeping
+/// their 6×6 inverse inline avoids an allocation per body and Newton iteration. The blocks
+/// are inverted once per assembly: W⁻¹ is then applied to the residual and to every active
+/// contact's Jacobian as a product, cheaper than the triangular solves it replaces and
+/// equal to them up to round-off for a well-conditioned W (M dominates it: on the circuit
+/// breaker the springs' h²θ²K and the gyroscopic hθ terms are below 1e-3 of M).
 #[allow(clippy::large_enum_variant)]
-enum Factor {
-    Single(Matrix6<f64>),
-    Coupled(DMatrix<f64>),
+enum Group {
+    Single {
+        body: usize,
+        inverse: Matrix6<f64>,
+    },
+    /// Bodies coupled by force elements (ascending), 6 rows each in `inverse`.
+    Coupled {
+        bodies: Vec<usize>,
+        inverse: DMatrix<f64>,
+    },
 }
 
 /// The inverse of a coupled group's W (6 rows per body), NaN where W is singular. Torsional
@@ -93,12 +100,6 @@ fn inverse6(m: Matrix6<f64>) -> Matrix6<f64> {
     inverse.unwrap_or_else(|| Matrix6::from_element(f64::NAN))
 }
 
-/// Bodies whose block of W is factorised together.
-struct Group {
-    bodies: Vec<usize>,
-    factor: Factor,
-}
-
 pub struct IterationMatrix<'m> {
     mask: &'m [bool],
     groups: Vec<Group>,
@@ -106,9 +107,8 @@ pub struct IterationMatrix<'m> {
     group_of: Vec<usize>,
 }
 
-/// Connected components of the bodies under the coupling pairs, each sorted, in order of
-/// their first body.
-fn components(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<Vec<usize>> {
+/// The component of each body under the coupling pairs, named by its smallest body.
+fn component_roots(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..n).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
@@ -123,12 +123,7 @@ fn components(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<Vec<
             parent[ra.max(rb)] = ra.min(rb);
         }
     }
-    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for i in 0..n {
-        let r = root(&mut parent, i);
-        groups.entry(r).or_default().push(i);
-    }
-    groups.into_values().collect()
+    (0..n).map(|i| root(&mut parent, i)).collect()
 }
 
 impl<'m> IterationMatrix<'m> {
@@ -167,14 +162,9 @@ impl<'m> IterationMatrix<'m> {
             .filter(|f| f.depends_on_pose() || f.depends_on_velocity())
             .collect();
         let twists = v.as_slice();
-        let (mut buf_p, mut buf_m) = if stiff.is_empty() {
-            (Vec::new(), Vec::new())
-        } else {
-            (vec![0.0; 6 * n], vec![0.0; 6 * n])
-        };
-        // perturbed copies of the state, restored after each difference
-        let mut pert_poses = poses.to_vec();
-        let mut pert_twists = v.as_slice().to_vec();
+        // force buffers and perturbed copies of the state (restored after each difference),
+        // made on the first finite difference
+        let mut scratch: Option<(Vec<f64>, Vec<f64>, Vec<Pose>, Vec<f64>)> = None;
         let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
         // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
         let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
@@ -228,19 +218,28 @@ impl<'m> IterationMatrix<'m> {
                         }
                         let mut d = Twist::zeros();
                         d[k] = FD_STEP;
+                        let (buf_p, buf_m, pert_poses, pert_twists) =
+                            scratch.get_or_insert_with(|| {
+                                (
+                                    vec![0.0; 6 * n],
+                                    vec![0.0; 6 * n],
+                                    poses.to_vec(),
+                                    twists.to_vec(),
+                                )
+                            });
                         buf_p.fill(0.0);
                         buf_m.fill(0.0);
                         if wrt_pose {
                             pert_poses[b] = poses[b].advanced(&d);
-                            f.apply(t, &pert_poses, twists, &mut buf_p);
+                            f.apply(t, pert_poses, twists, buf_p);
                             pert_poses[b] = poses[b].advanced(&(-d));
-                            f.apply(t, &pert_poses, twists, &mut buf_m);
+                            f.apply(t, pert_poses, twists, buf_m);
                             pert_poses[b] = poses[b];
                         } else {
                             pert_twists[6 * b + k] = twists[6 * b + k] + FD_STEP;
-                            f.apply(t, poses, &pert_twists, &mut buf_p);
+                            f.apply(t, poses, pert_twists, buf_p);
                             pert_twists[6 * b + k] = twists[6 * b + k] - FD_STEP;
-                            f.apply(t, poses, &pert_twists, &mut buf_m);
+                            f.apply(t, poses, pert_twists, buf_m);
                             pert_twists[6 * b + k] = twists[6 * b + k];
                         }
                         for &c in &bodies {
@@ -271,15 +270,39 @@ impl<'m> IterationMatrix<'m> {
         for (i, d) in diag.iter_mut().enumerate() {
             clamp(d, i, i);
         }
-        let mut groups = Vec::new();
+        if off.is_empty() {
+            // no force element couples two moving bodies: every body is its own group
+            return IterationMatrix {
+                mask,
+                groups: diag
+                    .iter()
+                    .enumerate()
+                    .map(|(body, d)| Group::Single {
+                        body,
+                        inverse: inverse6(*d),
+                    })
+                    .collect(),
+                group_of: (0..n).collect(),
+            };
+        }
+        // the groups in order of their first body
+        let roots = component_roots(n, off.keys().copied());
+        let mut size = vec![0usize; n];
+        roots.iter().for_each(|&r| size[r] += 1);
+        let mut groups = Vec::with_capacity(n);
         let mut group_of = vec![0; n];
-        for bodies in components(n, off.keys().copied()) {
-            for &b in &bodies {
-                group_of[b] = groups.len();
-            }
-            let factor = if let [b] = bodies[..] {
-                Factor::Single(inverse6(diag[b]))
+        for first in (0..n).filter(|&i| roots[i] == i) {
+            let group = if size[first] == 1 {
+                group_of[first] = groups.len();
+                Group::Single {
+                    body: first,
+                    inverse: inverse6(diag[first]),
+                }
             } else {
+                let bodies: Vec<usize> = (first..n).filter(|&b| roots[b] == first).collect();
+                for &b in &bodies {
+                    group_of[b] = groups.len();
+                }
                 let k = bodies.len();
                 let mut w = DMatrix::zeros(6 * k, 6 * k);
                 for (gi, &i) in bodies.iter().enumerate() {
@@ -298,9 +321,12 @@ impl<'m> IterationMatrix<'m> {
                         }
                     }
                 }
-                Factor::Coupled(inverse_coupled(w))
+                Group::Coupled {
+                    bodies,
+                    inverse: inverse_coupled(w),
+                }
             };
-            groups.push(Group { bodies, factor });
+            groups.push(group);
         }
         IterationMatrix {
             mask,
@@ -318,20 +344,19 @@ impl<'m> IterationMatrix<'m> {
             }
         }
         for g in &self.groups {
-            match &g.factor {
-                Factor::Single(inv) => {
-                    let i = g.bodies[0];
-                    let s: Twist = inv * x.fixed_rows::<6>(6 * i);
+            match g {
+                Group::Single { body: i, inverse } => {
+                    let s: Twist = inverse * x.fixed_rows::<6>(6 * i);
                     x.fixed_rows_mut::<6>(6 * i).copy_from(&s);
                 }
-                Factor::Coupled(inv) => {
-                    let mut y = DVector::zeros(6 * g.bodies.len());
-                    for (gi, &i) in g.bodies.iter().enumerate() {
+                Group::Coupled { bodies, inverse } => {
+                    let mut y = DVector::zeros(6 * bodies.len());
+                    for (gi, &i) in bodies.iter().enumerate() {
                         y.fixed_rows_mut::<6>(6 * gi)
                             .copy_from(&x.fixed_rows::<6>(6 * i));
                     }
-                    let y = inv * y;
-                    for (gi, &i) in g.bodies.iter().enumerate() {
+                    let y = inverse * y;
+                    for (gi, &i) in bodies.iter().enumerate() {
                         x.fixed_rows_mut::<6>(6 * i)
                             .copy_from(&y.fixed_rows::<6>(6 * gi));
                     }
@@ -357,32 +382,32 @@ impl<'m> IterationMatrix<'m> {
             gt
         };
         let mut out: Vec<(usize, Matrix6x3<f64>)> = Vec::with_capacity(blocks.len());
-        let mut done: Vec<usize> = Vec::with_capacity(2);
-        for &(b, _) in blocks {
+        // the groups already solved for (a contact touches at most two bodies)
+        let mut done = [usize::MAX; 2];
+        for (k, &(b, _)) in blocks.iter().enumerate() {
             let gi = self.group_of[b];
             if done.contains(&gi) {
                 continue;
             }
-            done.push(gi);
-            let g = &self.groups[gi];
-            match &g.factor {
-                Factor::Single(inv) => {
+            done[k] = gi;
+            match &self.groups[gi] {
+                Group::Single { inverse, .. } => {
                     let mut gt = Matrix6x3::zeros();
                     for (bb, gb) in blocks.iter().filter(|(bb, _)| *bb == b) {
                         gt += masked(*bb, gb);
                     }
-                    out.push((b, inv * gt));
+                    out.push((b, inverse * gt));
                 }
-                Factor::Coupled(inv) => {
+                Group::Coupled { bodies, inverse } => {
                     // only the columns of W⁻¹ of the contact's bodies enter
-                    let rows = 6 * g.bodies.len();
+                    let rows = 6 * bodies.len();
                     let mut y = DMatrix::zeros(rows, 3);
                     for (bb, gb) in blocks {
-                        if let Some(gj) = g.bodies.iter().position(|x| x == bb) {
-                            y += inv.columns(6 * gj, 6) * masked(*bb, gb);
+                        if let Some(gj) = bodies.iter().position(|x| x == bb) {
+                            y += inverse.columns(6 * gj, 6) * masked(*bb, gb);
                         }
                     }
-                    for (gj, &bb) in g.bodies.iter().enumerate() {
+                    for (gj, &bb) in bodies.iter().enumerate() {
                         if self.mask[6 * bb..6 * bb + 6].iter().any(|&m| m) {
                             out.push((bb, y.fixed_view::<6, 3>(6 * gj, 0).into_owned()));
                         }

@@ -79,14 +79,32 @@ pub fn advance_poses(
 /// rows differ from those by less than the solver's tolerance.
 const NORMAL_TURN: f64 = 1e-6;
 
-fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> Vec<(usize, Matrix3x6<f64>)> {
-    let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
-    let mut out = Vec::with_capacity(2);
-    if let Some(b) = c.body1.filter(|&b| moving(b)) {
-        out.push((b, c.g1));
+/// A contact's Jacobian blocks on its moving bodies: at most two, kept inline (a step
+/// builds them for every active contact).
+#[derive(Clone, Copy)]
+struct ContactBlocks {
+    blocks: [(usize, Matrix3x6<f64>); 2],
+    len: usize,
+}
+
+impl std::ops::Deref for ContactBlocks {
+    type Target = [(usize, Matrix3x6<f64>)];
+    fn deref(&self) -> &Self::Target {
+        &self.blocks[..self.len]
     }
-    if let Some(b) = c.body2.filter(|&b| moving(b)) {
-        out.push((b, c.g2));
+}
+
+fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
+    let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
+    let mut out = ContactBlocks {
+        blocks: [(0, Matrix3x6::zeros()); 2],
+        len: 0,
+    };
+    for (body, g) in [(c.body1, c.g1), (c.body2, c.g2)] {
+        if let Some(b) = body.filter(|&b| moving(b)) {
+            out.blocks[out.len] = (b, g);
+            out.len += 1;
+        }
     }
     out
 }
@@ -259,6 +277,7 @@ pub fn velocity_step(
     let mut v = v0.clone();
     let mut f1 = DVector::zeros(ndof);
     let mut resid = DVector::zeros(ndof);
+    let mut dv = DVector::zeros(ndof);
     let mut status = SolverStatus {
         converged: true,
         ..Default::default()
@@ -273,7 +292,9 @@ pub fn velocity_step(
             f1.axpy(-alpha, &resid, 1.0);
         }
         // R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀
-        model.mass_times(&(&v - v0), &mut resid);
+        dv.copy_from(&v);
+        dv -= v0;
+        model.mass_times(&dv, &mut resid);
         resid.axpy(-h * theta, &f1, 1.0);
         resid.axpy(-h * (1.0 - theta), &f0, 1.0);
         if it > 0 {
@@ -356,12 +377,12 @@ pub fn velocity_step(
         let mut q = DVector::zeros(3 * n);
         for (c, bc) in hblocks.as_ref().unwrap_or(&gblocks).iter().enumerate() {
             let mut qc = Vector3::zeros();
-            for (b, g) in bc {
+            for (b, g) in bc.iter() {
                 qc += g * v_free_c.fixed_rows::<6>(6 * b);
             }
             qc.x += shift[c];
             q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-            for (b, g) in bc {
+            for (b, g) in bc.iter() {
                 for &(d, y) in &responses[*b] {
                     let mut blk = dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d);
                     blk += g * y;
@@ -438,7 +459,7 @@ pub fn solve_columns(w: &IterationMatrix, x: &DMatrix<f64>) -> DMatrix<f64> {
 /// ‖R − Σ Gᵀ P‖ over the integrated degrees of freedom.
 fn newton_residual(
     resid: &DVector<f64>,
-    blocks: &[Vec<(usize, Matrix3x6<f64>)>],
+    blocks: &[ContactBlocks],
     r: &DVector<f64>,
     mask: &[bool],
 ) -> f64 {
@@ -446,7 +467,7 @@ fn newton_residual(
     for b in 0..resid.len() / 6 {
         let mut seg = resid.fixed_rows::<6>(6 * b).into_owned();
         for (c, blk) in blocks.iter().enumerate() {
-            for (b2, g) in blk {
+            for (b2, g) in blk.iter() {
                 if *b2 == b {
                     seg -= g.transpose() * r.fixed_rows::<3>(3 * c);
                 }

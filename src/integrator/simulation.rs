@@ -419,6 +419,13 @@ impl Simulation {
         mode: ContactRows,
     ) -> ProjectionOutcome {
         let model = &self.model;
+        if model.joints.is_empty() && pool.is_empty() {
+            // nothing to project: what `project` reports for no rows
+            return ProjectionOutcome {
+                converged: true,
+                ..Default::default()
+            };
+        }
         let candidates: Vec<Candidate> = pool.iter().map(|&i| self.candidates[i]).collect();
         let points = |ps: &[Pose]| -> Vec<ContactPoint> {
             let mut pts = Vec::with_capacity(pool.len());
@@ -446,7 +453,10 @@ impl Simulation {
         // another solution of its equations, not the nearest one: a journal jammed between
         // its flanges at a coarse step was thrown nine times the step's own motion, and
         // the bar gained 0.17 J. The step is then taken in halves, as for a projection
-        // that found no solution.
+        // that found no solution. (A projection that took no iteration left the trial.)
+        if outcome.iterations == 0 {
+            return outcome;
+        }
         let tolerance = self.params.projection_tolerance;
         let admissible = (0..self.points.len())
             .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);

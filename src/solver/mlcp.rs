@@ -3,7 +3,8 @@
 //! bilateral joint rows from the one-step problem (Schur complement) and for the
 //! position projection.
 
-use nalgebra::{DMatrix, DVector, Dyn, LU};
+use super::lu::Lu;
+use nalgebra::{DMatrix, DVector};
 
 /// Relative regularisation added to the diagonal: redundant constraints (closed loops)
 /// make A singular but the systems stay consistent, and two steps of iterative refinement
@@ -15,7 +16,7 @@ const REGULARISATION: f64 = 1e-12;
 /// Jacobian, so it is factorised by LU.
 pub struct EqualitySolver {
     a: DMatrix<f64>,
-    lu: LU<f64, Dyn, Dyn>,
+    lu: Lu,
 }
 
 impl EqualitySolver {
@@ -28,7 +29,10 @@ impl EqualitySolver {
         for i in 0..reg.nrows() {
             reg[(i, i)] += REGULARISATION * scale;
         }
-        EqualitySolver { a, lu: reg.lu() }
+        EqualitySolver {
+            a,
+            lu: Lu::new(reg),
+        }
     }
 
     /// A solution of A z = rhs (exact for consistent systems); NaN if the regularised

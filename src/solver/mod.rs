@@ -2,13 +2,15 @@
 //!
 //! `fc3d` states the 3D frictional contact problem FC3D(W, q, μ) and its natural-map
 //! error; `nsgs` solves it by nonsmooth Gauss–Seidel with a one-contact Alart–Curnier
-//! Newton method.
+//! Newton method; `lu` factorises the block-sparse matrices of both.
 
 pub mod fc3d;
+pub mod lu;
 pub mod mlcp;
 pub mod newton;
 pub mod nsgs;
 
 pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};
+pub use lu::Lu;
 pub use mlcp::{solve_mixed_pgs, EqualitySolver};
 pub use nsgs::{solve_fc3d, NsgsOptions};

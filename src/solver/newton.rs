@@ -4,6 +4,7 @@
 //! clearance joint), whose Delassus matrix is ill-conditioned.
 
 use super::fc3d::{natural_map_error, Fc3d};
+use super::lu::Lu;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
 
 /// Φ of one contact and its derivatives A = ∂Φ/∂r, B = ∂Φ/∂u.
@@ -106,7 +107,7 @@ pub fn global_newton(
         for k in 0..jac.nrows() {
             jac[(k, k)] += shift;
         }
-        let dr = jac.lu().solve(&(-&phi))?;
+        let dr = Lu::new(jac).solve(&(-&phi))?;
         let mut t = 1.0;
         loop {
             let trial = &*r + &dr * t;

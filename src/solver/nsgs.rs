@@ -8,7 +8,7 @@ use super::fc3d::{
     SolverStatus,
 };
 use super::newton::{global_newton, proximal_newton};
-use nalgebra::{DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
 /// the global Newton method. On the circuit breaker a fifth of the steps do not converge
@@ -62,15 +62,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
     // the contacts each one is coupled to, with their (nonzero) off-diagonal blocks W_ab:
     // contacts on bodies W does not couple leave each other's blocks zero, and skipping
     // them makes a sweep over a mechanism cost what its couplings cost
-    let coupled: Vec<Vec<(usize, Matrix3<f64>)>> = (0..n)
-        .map(|a| {
-            (0..n)
-                .filter(|&b| b != a)
-                .map(|b| (b, p.w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned()))
-                .filter(|(_, block)| block.iter().any(|&x| x != 0.0))
-                .collect()
-        })
-        .collect();
+    let coupled = Coupling::of(p.w, n);
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     for sweep in 1..=opts.max_sweeps {
         for (a, (block, inverse)) in blocks.iter().enumerate() {
@@ -78,7 +70,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
             // q_loc = q_a + Σ_{b≠a} W_ab r_b
             let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]);
-            for (b, w_ab) in &coupled[a] {
+            for (b, w_ab) in coupled.of_contact(a) {
                 qloc += w_ab * Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
             }
             let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
@@ -117,19 +109,51 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
     last_resort(p, r, opts, opts.max_sweeps)
 }
 
+/// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
+struct Coupling {
+    /// (b, W_ab) for every contact a in turn, b ascending.
+    blocks: Vec<(usize, Matrix3<f64>)>,
+    /// Contact a's blocks are `blocks[start[a]..start[a + 1]]`.
+    start: Vec<usize>,
+}
+
+impl Coupling {
+    fn of(w: &DMatrix<f64>, n: usize) -> Self {
+        let mut blocks = Vec::new();
+        let mut start = Vec::with_capacity(n + 1);
+        for a in 0..n {
+            start.push(blocks.len());
+            for b in (0..n).filter(|&b| b != a) {
+                let block = w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
+                if block.iter().any(|&x| x != 0.0) {
+                    blocks.push((b, block));
+                }
+            }
+        }
+        start.push(blocks.len());
+        Coupling { blocks, start }
+    }
+
+    fn of_contact(&self, a: usize) -> impl Iterator<Item = (usize, &Matrix3<f64>)> {
+        self.blocks[self.start[a]..self.start[a + 1]]
+            .iter()
+            .map(|(b, w)| (*b, w))
+    }
+}
+
 /// u = W r + q over the nonzero blocks of W only (each contact's own and `coupled`).
 fn local_velocity(
     p: &Fc3d,
     r: &DVector<f64>,
     blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
-    coupled: &[Vec<(usize, Matrix3<f64>)>],
+    coupled: &Coupling,
 ) -> DVector<f64> {
     let rb = |b: usize| Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
     let mut u = p.q.clone();
-    for (a, others) in coupled.iter().enumerate() {
-        let mut ua = u.fixed_rows::<3>(3 * a) + blocks[a].0 * rb(a);
-        for (b, w_ab) in others {
-            ua += w_ab * rb(*b);
+    for (a, (block, _)) in blocks.iter().enumerate() {
+        let mut ua = u.fixed_rows::<3>(3 * a) + block * rb(a);
+        for (b, w_ab) in coupled.of_contact(a) {
+            ua += w_ab * rb(b);
         }
         u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
     }
