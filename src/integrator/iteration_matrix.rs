@@ -13,7 +13,7 @@
 use crate::math::skew;
 use crate::mechanics::body::Twist;
 use crate::mechanics::{Model, Pose};
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix3x6, Matrix6, Matrix6x3};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix3x6, Matrix6, Matrix6x3, StorageMut, Vector};
 use std::collections::BTreeMap;
 
 /// Relative finite-difference step for force-element Jacobians.
@@ -107,6 +107,15 @@ pub struct IterationMatrix<'m> {
     group_of: Vec<usize>,
 }
 
+/// Scratch space of the finite differences: the force buffers of the two perturbations
+/// and the perturbed copies of the poses and twists.
+struct Differences {
+    plus: Vec<f64>,
+    minus: Vec<f64>,
+    poses: Vec<Pose>,
+    twists: Vec<f64>,
+}
+
 /// The component of each body under the coupling pairs, named by its smallest body.
 fn component_roots(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..n).collect();
@@ -164,7 +173,7 @@ impl<'m> IterationMatrix<'m> {
         let twists = v.as_slice();
         // force buffers and perturbed copies of the state (restored after each difference),
         // made on the first finite difference
-        let mut scratch: Option<(Vec<f64>, Vec<f64>, Vec<Pose>, Vec<f64>)> = None;
+        let mut scratch: Option<Differences> = None;
         let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
         // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
         let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
@@ -218,15 +227,17 @@ impl<'m> IterationMatrix<'m> {
                         }
                         let mut d = Twist::zeros();
                         d[k] = FD_STEP;
-                        let (buf_p, buf_m, pert_poses, pert_twists) =
-                            scratch.get_or_insert_with(|| {
-                                (
-                                    vec![0.0; 6 * n],
-                                    vec![0.0; 6 * n],
-                                    poses.to_vec(),
-                                    twists.to_vec(),
-                                )
-                            });
+                        let Differences {
+                            plus: buf_p,
+                            minus: buf_m,
+                            poses: pert_poses,
+                            twists: pert_twists,
+                        } = scratch.get_or_insert_with(|| Differences {
+                            plus: vec![0.0; 6 * n],
+                            minus: vec![0.0; 6 * n],
+                            poses: poses.to_vec(),
+                            twists: twists.to_vec(),
+                        });
                         buf_p.fill(0.0);
                         buf_m.fill(0.0);
                         if wrt_pose {
@@ -338,6 +349,12 @@ impl<'m> IterationMatrix<'m> {
     /// W⁻¹ rhs (held dofs give zero).
     pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
         let mut x = rhs.clone();
+        self.solve_mut(&mut x);
+        x
+    }
+
+    /// Overwrites x with W⁻¹ x (held dofs give zero).
+    pub fn solve_mut<S: StorageMut<f64, Dyn>>(&self, x: &mut Vector<f64, Dyn, S>) {
         for (k, &m) in self.mask.iter().enumerate() {
             if !m {
                 x[k] = 0.0;
@@ -363,11 +380,10 @@ impl<'m> IterationMatrix<'m> {
                 }
             }
         }
-        x
     }
 
-    /// W⁻¹ Gᵀ for one contact with Jacobian blocks on bodies (b1, b2): the nonzero 6×3
-    /// blocks per body.
+    /// W⁻¹ Gᵀ for one contact with Jacobian blocks on bodies (b1, b2), at most two: the
+    /// nonzero 6×3 blocks per body.
     pub fn solve_contact(
         &self,
         blocks: &[(usize, Matrix3x6<f64>)],
@@ -400,16 +416,21 @@ impl<'m> IterationMatrix<'m> {
                 }
                 Group::Coupled { bodies, inverse } => {
                     // only the columns of W⁻¹ of the contact's bodies enter
-                    let rows = 6 * bodies.len();
-                    let mut y = DMatrix::zeros(rows, 3);
+                    let mut terms = [(0, Matrix6x3::zeros()); 2];
+                    let mut count = 0;
                     for (bb, gb) in blocks {
-                        if let Some(gj) = bodies.iter().position(|x| x == bb) {
-                            y += inverse.columns(6 * gj, 6) * masked(*bb, gb);
+                        if let Some(gk) = bodies.iter().position(|x| x == bb) {
+                            terms[count] = (gk, masked(*bb, gb));
+                            count += 1;
                         }
                     }
                     for (gj, &bb) in bodies.iter().enumerate() {
                         if self.mask[6 * bb..6 * bb + 6].iter().any(|&m| m) {
-                            out.push((bb, y.fixed_view::<6, 3>(6 * gj, 0).into_owned()));
+                            let mut y = Matrix6x3::zeros();
+                            for (gk, g) in &terms[..count] {
+                                y += inverse.fixed_view::<6, 6>(6 * gj, 6 * gk) * g;
+                            }
+                            out.push((bb, y));
                         }
                     }
                 }

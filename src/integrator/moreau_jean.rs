@@ -138,7 +138,7 @@ impl Elimination {
         hmat: DMatrix<f64>,
         rates: DVector<f64>,
     ) -> Self {
-        let z = solve_columns(w, &gmat.transpose());
+        let z = solve_columns(w, gmat.transpose());
         let bodies = hmat.ncols() / 6;
         let h_bodies = (0..bodies)
             .filter(|&b| hmat.columns(6 * b, 6).iter().any(|&x| x != 0.0))
@@ -160,16 +160,14 @@ impl Elimination {
     /// Turns a contact's response y = W⁻¹Gᵀ into the constrained one, y − Z S⁻¹ H y, and
     /// returns S⁻¹ H y (what its impulse takes from the joints' ones); None when H y = 0.
     fn constrain(&self, y: &mut Vec<(usize, Matrix6x3<f64>)>) -> Option<DMatrix<f64>> {
+        if !y.iter().any(|(b, _)| self.h_bodies.contains(b)) {
+            return None;
+        }
         let mut hy = DMatrix::zeros(self.hmat.nrows(), 3);
-        let mut touched = false;
         for (b, yb) in y.iter() {
             if self.h_bodies.contains(b) {
                 hy += self.hmat.columns(6 * b, 6) * yb;
-                touched = true;
             }
-        }
-        if !touched {
-            return None;
         }
         let corr = self.schur.solve_matrix(&hy);
         for &b in &self.z_bodies {
@@ -447,13 +445,12 @@ pub fn bilateral_matrix(
     )
 }
 
-/// W⁻¹ X column by column.
-pub fn solve_columns(w: &IterationMatrix, x: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(x.nrows(), x.ncols());
-    for j in 0..x.ncols() {
-        out.set_column(j, &w.solve(&x.column(j).into_owned()));
+/// W⁻¹ X column by column, in place.
+pub fn solve_columns(w: &IterationMatrix, mut x: DMatrix<f64>) -> DMatrix<f64> {
+    for mut column in x.column_iter_mut() {
+        w.solve_mut(&mut column);
     }
-    out
+    x
 }
 
 /// ‖R − Σ Gᵀ P‖ over the integrated degrees of freedom.

@@ -38,13 +38,17 @@ impl EqualitySolver {
     /// A solution of A z = rhs (exact for consistent systems); NaN if the regularised
     /// matrix is singular.
     pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
-        let Some(mut z) = self.lu.solve(rhs) else {
+        let mut z = rhs.clone();
+        if !self.lu.solve_in_place(z.as_mut_slice()) {
             return DVector::from_element(rhs.len(), f64::NAN);
-        };
+        }
+        let (mut az, mut dz) = (DVector::zeros(rhs.len()), DVector::zeros(rhs.len()));
         for _ in 0..2 {
-            let r = rhs - &self.a * &z;
-            if let Some(dz) = self.lu.solve(&r) {
-                z += dz;
+            self.a.mul_to(&z, &mut az);
+            dz.copy_from(rhs);
+            dz -= &az;
+            if self.lu.solve_in_place(dz.as_mut_slice()) {
+                z += &dz;
             }
         }
         z

@@ -255,18 +255,21 @@ impl ContactPoint {
         let n = geometry.normal;
         let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
         let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
-        let jac = |body: &BodyFrame, sign: f64| -> Matrix3x6<f64> {
-            let lever = lever(body, &geometry.point1);
-            let row = |d: &Vector3<f64>| lever_row(d, &lever) * sign;
-            Matrix3x6::from_rows(&[row(&n), row(&t1), row(&t2)])
+        // [F, F lever] for the frame's rows F, negated for body 2
+        let jac = |body: &BodyFrame| -> Matrix3x6<f64> {
+            let mut g = Matrix3x6::zeros();
+            g.fixed_columns_mut::<3>(0).copy_from(&frame);
+            g.fixed_columns_mut::<3>(3)
+                .copy_from(&(frame * lever(body, &geometry.point1)));
+            g
         };
         ContactPoint {
             geometry,
             frame,
             body1,
             body2,
-            g1: jac(p1, 1.0),
-            g2: jac(p2, -1.0),
+            g1: jac(p1),
+            g2: -jac(p2),
             mu,
             e,
             gap_law: false,
