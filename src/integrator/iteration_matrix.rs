@@ -397,8 +397,9 @@ impl<'m> IterationMatrix<'m> {
             }
             gt
         };
+        debug_assert!(blocks.len() <= 2, "a contact touches at most two bodies");
         let mut out: Vec<(usize, Matrix6x3<f64>)> = Vec::with_capacity(blocks.len());
-        // the groups already solved for (a contact touches at most two bodies)
+        // the groups already solved for
         let mut done = [usize::MAX; 2];
         for (k, &(b, _)) in blocks.iter().enumerate() {
             let gi = self.group_of[b];

@@ -2,7 +2,8 @@
 //!
 //! `fc3d` states the 3D frictional contact problem FC3D(W, q, μ) and its natural-map
 //! error; `nsgs` solves it by nonsmooth Gauss–Seidel with a one-contact Alart–Curnier
-//! Newton method; `lu` factorises the block-sparse matrices of both.
+//! Newton method; `lu` factorises the block-sparse matrices of its global Newton
+//! method and of `mlcp`'s equality solver.
 
 pub mod fc3d;
 pub mod lu;
