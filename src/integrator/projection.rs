@@ -114,13 +114,12 @@ fn evaluate_rows(
     contact_points: &dyn Fn(&[Pose]) -> Vec<ContactPoint>,
     mode: ContactRows,
 ) -> Evaluated {
-    let mut rows = Vec::new();
-    for j in &model.joints {
-        j.rows(t, poses, &mut rows);
-    }
+    let mut rows = model.joint_rows(t, poses);
     let njoint = rows.len();
     let mut curved = Vec::new();
-    for cp in contact_points(poses) {
+    let points = contact_points(poses);
+    rows.reserve(points.len());
+    for cp in points {
         if let Some(l) = cp.lateral {
             curved.push((rows.len(), contact_row(&cp, l.g1, l.g2, 0.0), l.kappa));
         }

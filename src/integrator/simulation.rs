@@ -220,11 +220,7 @@ impl Simulation {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
         if !self.model.joints.is_empty() {
-            let mut rows = Vec::new();
-            for j in &self.model.joints {
-                j.rows(self.state.t, &self.state.poses, &mut rows);
-            }
-            for r in rows {
+            for r in self.model.joint_rows(self.state.t, &self.state.poses) {
                 let s = &mut self.stats;
                 match r.unit {
                     RowUnit::Length => {
@@ -316,13 +312,7 @@ impl Simulation {
 
     pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
         let joints = &self.model.joints;
-        let rows_at = |t: f64, poses: &[Pose]| {
-            let mut rows = Vec::new();
-            for j in joints {
-                j.rows(t, poses, &mut rows);
-            }
-            rows
-        };
+        let rows_at = |t: f64, poses: &[Pose]| self.model.joint_rows(t, poses);
         // The contacts enter as copies: while settling, those that lose their friction with
         // μ = 0; and, where positions are projected, those closed in the last step and
         // approaching with e = 0. A closed contact (pressed, or in the last velocity problem

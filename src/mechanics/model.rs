@@ -6,7 +6,7 @@ use super::body::{Motion, Pose, RigidBody, Twist};
 use super::contact::clearance::ClearanceJoint;
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
-use super::joint::Joint;
+use super::joint::{BilateralRow, Joint};
 use nalgebra::{DVector, Vector3};
 
 /// A unilateral contact candidate: a point of a contact pair, or a joint stop.
@@ -70,6 +70,16 @@ impl Model {
             poses: self.bodies.iter().map(|b| b.pose).collect(),
             v,
         }
+    }
+
+    /// The bilateral rows of every joint at time `t` and `poses`, in joint order (sized
+    /// once: a step asks for them several times).
+    pub fn joint_rows(&self, t: f64, poses: &[Pose]) -> Vec<BilateralRow> {
+        let mut rows = Vec::with_capacity(self.joints.iter().map(Joint::row_count).sum());
+        for j in &self.joints {
+            j.rows(t, poses, &mut rows);
+        }
+        rows
     }
 
     /// Per-dof flag: integrated (true) or held fixed (false).
