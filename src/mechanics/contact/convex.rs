@@ -295,14 +295,20 @@ mod tests {
     use nalgebra::UnitQuaternion;
     use std::f64::consts::FRAC_PI_4;
 
-    fn cube() -> Primitive {
-        let corners: Vec<Vector3<f64>> = (0..8)
+    /// The 8 corners of a box centred at the origin with half extents (x, y, z).
+    fn box_corners(x: f64, y: f64, z: f64) -> Vec<Vector3<f64>> {
+        (0..8)
             .map(|k| {
-                let s = |bit: usize| if k & bit != 0 { 0.5 } else { -0.5 };
-                Vector3::new(s(1), s(2), s(4))
+                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
+                Vector3::new(s(1, x), s(2, y), s(4, z))
             })
-            .collect();
-        Primitive::Convex(Box::new(ConvexPart::new(&corners, true).unwrap()))
+            .collect()
+    }
+
+    fn cube() -> Primitive {
+        Primitive::Convex(Box::new(
+            ConvexPart::new(&box_corners(0.5, 0.5, 0.5), true).unwrap(),
+        ))
     }
 
     /// Two unit cubes, one turned 45° about x resting on its bottom edge, the other turned
@@ -338,13 +344,9 @@ mod tests {
         }
         // an edge lying across a narrow beam's top face, overhanging it on both sides: no
         // vertex of either touches, the deepest point does
-        let beam_corners: Vec<Vector3<f64>> = (0..8)
-            .map(|k| {
-                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
-                Vector3::new(s(1, 0.1), s(2, 1.0), s(4, 0.5))
-            })
-            .collect();
-        let beam = Primitive::Convex(Box::new(ConvexPart::new(&beam_corners, true).unwrap()));
+        let beam = Primitive::Convex(Box::new(
+            ConvexPart::new(&box_corners(0.1, 1.0, 0.5), true).unwrap(),
+        ));
         for d in [0.01, -1e-3] {
             let poses = [
                 Pose {
@@ -508,14 +510,8 @@ mod tests {
                 .collect()
         };
         // a 2 m slab, its top at z = 0.5: both ends 0.01 above it
-        let slab: Vec<Vector3<f64>> = (0..8)
-            .map(|k| {
-                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
-                Vector3::new(s(1, 1.0), s(2, 1.0), s(4, 0.5))
-            })
-            .collect();
         let on_slab = pair(Primitive::Convex(Box::new(
-            ConvexPart::new(&slab, true).unwrap(),
+            ConvexPart::new(&box_corners(1.0, 1.0, 0.5), true).unwrap(),
         )));
         assert_eq!(on_slab.candidates(), 11);
         let g = gaps(
@@ -542,14 +538,8 @@ mod tests {
             "{h:?}"
         );
         // across a beam 0.2 wide: only the middle touches
-        let beam: Vec<Vector3<f64>> = (0..8)
-            .map(|k| {
-                let s = |bit: usize, e: f64| if k & bit != 0 { e } else { -e };
-                Vector3::new(s(1, 0.1), s(2, 1.0), s(4, 0.5))
-            })
-            .collect();
         let across = pair(Primitive::Convex(Box::new(
-            ConvexPart::new(&beam, true).unwrap(),
+            ConvexPart::new(&box_corners(0.1, 1.0, 0.5), true).unwrap(),
         )));
         let g = gaps(
             &across,
