@@ -98,6 +98,12 @@ fn evaluations(c: &mut Criterion) {
         radius: 0.005,
         half_length: 0.01,
     };
+    let cone = Primitive::Cone {
+        center: Vector3::zeros(),
+        axis: Vector3::z(),
+        radius: 0.005,
+        half_length: 0.01,
+    };
     let boxed = Primitive::Box {
         center: Vector3::zeros(),
         rotation: UnitQuaternion::identity(),
@@ -121,12 +127,17 @@ fn evaluations(c: &mut Criterion) {
         ("sphere-box", sphere.clone(), boxed),
         ("sphere-plane", sphere.clone(), plane.clone()),
         ("sphere-profile", sphere.clone(), latch()),
-        ("cylinder-profile", cylinder, latch()),
+        ("cylinder-profile", cylinder.clone(), latch()),
         ("profile-profile", latch(), latch()),
         ("convex-plane", convex_box(), plane.clone()),
         ("sphere-convex", sphere.clone(), convex_box()),
         ("convex-convex", convex_box(), convex_box()),
         ("capsule-convex", capsule.clone(), convex_box()),
+        ("cylinder-plane", cylinder.clone(), plane.clone()),
+        ("cylinder-convex", cylinder.clone(), convex_box()),
+        ("cone-plane", cone.clone(), plane.clone()),
+        ("cone-convex", cone.clone(), convex_box()),
+        ("cylinder-mesh", cylinder, mesh_floor()),
         ("sphere-mesh", sphere.clone(), mesh_floor()),
         ("convex-mesh", convex_box(), mesh_floor()),
     ];

@@ -152,6 +152,18 @@ fn shape_items(
                 ));
             }
         }
+        Primitive::Cone {
+            center,
+            axis,
+            radius,
+            half_length,
+        } => {
+            // the base circle, and the apex as a point
+            for (s, r) in [(-1.0, *radius), (1.0, 2e-4)] {
+                let end = center + axis.normalize() * (s * half_length);
+                out.push(Item::Circle(view.project(&pose.point(&end)), r, style));
+            }
+        }
         Primitive::Point { position } => out.push(Item::Circle(
             view.project(&pose.point(position)),
             2e-4,

@@ -537,6 +537,20 @@ impl Node for PrimitiveSpec {
                     v.vector("center", center, L, Some(&ZERO));
                 }),
             ),
+            PrimitiveSpec::Cone {
+                radius,
+                length,
+                axis,
+                center,
+            } => v.node(
+                "cone",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.required("radius", radius, L);
+                    v.required("length", length, L);
+                    v.vector("axis", axis, Dim::NONE, Some(&Z_AXIS));
+                    v.vector("center", center, L, Some(&ZERO));
+                }),
+            ),
             PrimitiveSpec::Capsule {
                 radius,
                 length,

@@ -258,6 +258,14 @@ pub enum PrimitiveSpec {
         axis: Option<Vector>,
         center: Option<Vector>,
     },
+    /// A solid cone: its base (of `radius`) at −length/2 along `axis` from `center`, its
+    /// apex at +length/2.
+    Cone {
+        radius: Q,
+        length: Q,
+        axis: Option<Vector>,
+        center: Option<Vector>,
+    },
     Point {
         position: Vector,
     },

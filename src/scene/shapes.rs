@@ -1,4 +1,4 @@
-//! Contact pairs: the shapes (sphere, plane, box, cylinder, capsule, point, profile,
+//! Contact pairs: the shapes (sphere, plane, box, cylinder, cone, capsule, point, profile,
 //! convex part, mesh) on two bodies, with their friction and restitution.
 
 use super::error::{line, SceneError};
@@ -96,6 +96,17 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
             half_length: 0.5 * positive(length, Dim::LENGTH, &fl("cylinder.length"))?,
             axis: axis_of(axis, "cylinder.axis")?,
             center: opt_vec3(center, Dim::LENGTH, &fl("cylinder.center"))?,
+        },
+        PrimitiveSpec::Cone {
+            radius,
+            length,
+            axis,
+            center,
+        } => Primitive::Cone {
+            radius: positive(radius, Dim::LENGTH, &fl("cone.radius"))?,
+            half_length: 0.5 * positive(length, Dim::LENGTH, &fl("cone.length"))?,
+            axis: axis_of(axis, "cone.axis")?,
+            center: opt_vec3(center, Dim::LENGTH, &fl("cone.center"))?,
         },
         PrimitiveSpec::Capsule {
             radius,

@@ -28,6 +28,9 @@ pub struct ConvexPart {
     triangles: Vec<[usize; 3]>,
     /// Each triangle's outward unit normal and offset: n · x = d on its plane.
     planes: Vec<(Vector3<f64>, f64)>,
+    /// The hull's edges, as vertex pairs: where two faces meet at an angle (the diagonals
+    /// that split a flat face into triangles are not edges).
+    pub edges: Vec<[usize; 2]>,
     /// The same hull as parry's shape, for GJK/EPA.
     shape: parry3d_f64::shape::ConvexPolyhedron,
 }
@@ -106,11 +109,31 @@ impl ConvexPart {
         }
         let shape = parry3d_f64::shape::ConvexPolyhedron::from_convex_hull(&pts)
             .ok_or("parry cannot build the convex polyhedron")?;
+        // each side of each triangle, with the triangle; a hull's side is shared by two
+        let mut sides: Vec<([usize; 2], usize)> = triangles
+            .iter()
+            .enumerate()
+            .flat_map(|(k, t)| {
+                (0..3).map(move |j| {
+                    let (a, b) = (t[j], t[(j + 1) % 3]);
+                    ([a.min(b), a.max(b)], k)
+                })
+            })
+            .collect();
+        sides.sort_unstable();
+        let edges = sides
+            .chunks(2)
+            .filter(|pair| {
+                pair.len() == 2 && planes[pair[0].1].0.dot(&planes[pair[1].1].0) < 1.0 - 1e-9
+            })
+            .map(|pair| pair[0].0)
+            .collect();
         Ok(ConvexPart {
             vertices,
             rounding: 0.0,
             triangles,
             planes,
+            edges,
             shape,
         })
     }
@@ -131,7 +154,7 @@ impl ConvexPart {
 
     /// The closest boundary point to `x` (body frame).
     pub fn surface(&self, x: &Vector3<f64>) -> Surface {
-        let (deepest, k) = self
+        let (deepest, k_deepest) = self
             .planes
             .iter()
             .enumerate()
@@ -139,7 +162,7 @@ impl ConvexPart {
             .fold((f64::MIN, 0), |a, b| if b.0 > a.0 { b } else { a });
         if deepest <= 0.0 {
             // inside: out through the nearest face plane, which is on the hull
-            let n = self.planes[k].0;
+            let n = self.planes[k_deepest].0;
             return Surface {
                 distance: deepest,
                 point: x - n * deepest,
@@ -157,8 +180,14 @@ impl ConvexPart {
                 best = (d, p, k, interior);
             }
         }
-        let (_, point, k, interior) = best;
-        surface_at(x, point, interior.then_some(self.planes[k]))
+        let (d2, point, k, interior) = best;
+        // a point over a side shared by two triangles of one flat face (or over the
+        // face's own plane within round-off) has that face's normal, not the direction from
+        // the side: a corner resting on a face's diagonal would otherwise push sideways
+        let on_plane = !interior && deepest >= d2.sqrt() - 1e-12 * self.size();
+        let plane =
+            (interior || on_plane).then(|| self.planes[if on_plane { k_deepest } else { k }]);
+        surface_at(x, point, plane)
     }
 
     /// The deepest (or closest) pair of points between this part at pose `p1` and `other`
@@ -184,6 +213,49 @@ impl ConvexPart {
             f64::MAX,
         )?;
         Some(geometry(&c, p1, p2))
+    }
+
+    /// The point of this part (at `pose`) in the deepest (or closest) pair of points between
+    /// it and a cylinder or cone (on a body at `round_pose`), by parry's GJK/EPA; inertial.
+    pub fn deepest_point_against(
+        &self,
+        pose: &crate::mechanics::Pose,
+        round: &super::revolution::Revolution,
+        round_pose: &crate::mechanics::Pose,
+    ) -> Option<Vector3<f64>> {
+        // parry's cylinders and cones stand along their y axis, centred
+        let upright = nalgebra::UnitQuaternion::rotation_between(&Vector3::y(), &round.axis)
+            .unwrap_or_else(|| {
+                nalgebra::UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+            });
+        let frame = crate::mechanics::Pose {
+            x: round_pose.point(&round.center),
+            p: round_pose.p * upright,
+        };
+        let q = (frame.p.inverse() * pose.p).into_inner();
+        let pos12 = parry3d_f64::math::Pose::from_parts(
+            to_parry(&frame.local(&pose.x)),
+            parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
+        );
+        let (h, r) = (round.half_length, round.radius);
+        let c = if round.cone {
+            let cone = parry3d_f64::shape::Cone::new(h, r);
+            parry3d_f64::query::details::contact_support_map_support_map(
+                &pos12,
+                &cone,
+                &self.shape,
+                f64::MAX,
+            )
+        } else {
+            let cylinder = parry3d_f64::shape::Cylinder::new(h, r);
+            parry3d_f64::query::details::contact_support_map_support_map(
+                &pos12,
+                &cylinder,
+                &self.shape,
+                f64::MAX,
+            )
+        }?;
+        Some(pose.point(&from_parry(c.point2)))
     }
 
     /// The deepest (or closest) pair of points between the segment `a`–`b` (inertial) and

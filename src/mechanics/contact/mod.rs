@@ -8,6 +8,7 @@ pub mod convex;
 pub mod mesh;
 pub mod primitives;
 pub mod profile;
+pub mod revolution;
 
 pub use primitives::{ContactGeometry, Primitive};
 
@@ -124,7 +125,11 @@ impl ContactPair {
             Primitive::Plane { .. } => !matches!(other, Primitive::Plane { .. }),
             Primitive::Box { .. } | Primitive::Convex(_) => matches!(
                 other,
-                Primitive::Sphere { .. } | Primitive::Point { .. } | Primitive::Capsule { .. }
+                Primitive::Sphere { .. }
+                    | Primitive::Point { .. }
+                    | Primitive::Capsule { .. }
+                    | Primitive::Cylinder { .. }
+                    | Primitive::Cone { .. }
             ),
             Primitive::Profile(_) => !matches!(other, Primitive::Profile(_)),
             Primitive::Mesh(_) => !matches!(other, Primitive::Mesh(_) | Primitive::Plane { .. }),
@@ -135,12 +140,16 @@ impl ContactPair {
         } else {
             (body1, shape1, body2, shape2)
         };
-        // a box meeting a convex part, a mesh or a capsule is taken as the convex part it is
+        // a box meeting a convex part, a mesh, a capsule, a cylinder or a cone is taken as
+        // the convex part it is
         let polyhedral = |s: &Primitive| matches!(s, Primitive::Convex(_) | Primitive::Mesh(_));
         let (shape1, shape2) = match (shape1, shape2) {
             (b @ Primitive::Box { .. }, other) if polyhedral(&other) => (b.into_convex(), other),
             (
-                s1 @ (Primitive::Convex(_) | Primitive::Capsule { .. }),
+                s1 @ (Primitive::Convex(_)
+                | Primitive::Capsule { .. }
+                | Primitive::Cylinder { .. }
+                | Primitive::Cone { .. }),
                 b @ Primitive::Box { .. },
             ) => (s1, b.into_convex()),
             pair => pair,
@@ -165,9 +174,14 @@ impl ContactPair {
                 )
                 | (Primitive::Capsule { .. }, Primitive::Convex(_))
                 | (
+                    Primitive::Cylinder { .. } | Primitive::Cone { .. },
+                    Primitive::Convex(_) | Primitive::Mesh(_)
+                )
+                | (
                     Primitive::Sphere { .. }
                         | Primitive::Box { .. }
                         | Primitive::Cylinder { .. }
+                        | Primitive::Cone { .. }
                         | Primitive::Capsule { .. }
                         | Primitive::Point { .. }
                         | Primitive::Convex(_),
@@ -176,7 +190,7 @@ impl ContactPair {
         );
         if !supported {
             return Err(format!(
-                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; capsule against a box or a convex part; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
+                "unsupported contact pair {} – {} (supported: sphere, box, cylinder, cone, capsule, point or convex against a plane; sphere or point against a box, a convex part or a mesh; capsule against a box or a convex part; cylinder or cone against a box, a convex part or a mesh; sphere against sphere; point, sphere, cylinder or profile against a profile; convex or box against a convex part or a mesh)",
                 shape1.kind(),
                 shape2.kind()
             ));
@@ -203,6 +217,14 @@ impl ContactPair {
             (Primitive::Convex(a), Primitive::Convex(b)) => a.vertices.len() + b.vertices.len() + 1,
             (Primitive::Convex(a), Primitive::Mesh(_)) => a.vertices.len(),
             (Primitive::Capsule { .. }, Primitive::Convex(b)) => b.vertices.len() + 3,
+            (
+                round @ (Primitive::Cylinder { .. } | Primitive::Cone { .. }),
+                Primitive::Convex(b),
+            ) => {
+                let rev = revolution::Revolution::of(round).expect("a cylinder or a cone");
+                2 + b.vertices.len() + rev.side_edges(b) + 1
+            }
+            (Primitive::Cylinder { .. } | Primitive::Cone { .. }, Primitive::Mesh(_)) => 2,
             (_, Primitive::Convex(_) | Primitive::Mesh(_)) => 1,
             (s1, _) => s1.candidate_count(),
         }

@@ -5,6 +5,7 @@
 use super::convex::{ConvexPart, Surface};
 use super::mesh::MeshPart;
 use super::profile::{Pin, Profile, OUT_OF_REACH};
+use super::revolution::Revolution;
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -28,6 +29,14 @@ pub enum Primitive {
     },
     /// Solid cylinder; candidates are the deepest point of each end circle.
     Cylinder {
+        center: Vector3<f64>,
+        axis: Vector3<f64>,
+        radius: f64,
+        half_length: f64,
+    },
+    /// Solid cone, its base at −`half_length` along `axis` from `center` and its apex at
+    /// +`half_length`; against a plane, the apex and the deepest point of the base circle.
+    Cone {
         center: Vector3<f64>,
         axis: Vector3<f64>,
         radius: f64,
@@ -59,6 +68,7 @@ impl Primitive {
             Primitive::Plane { .. } => "plane",
             Primitive::Box { .. } => "box",
             Primitive::Cylinder { .. } => "cylinder",
+            Primitive::Cone { .. } => "cone",
             Primitive::Capsule { .. } => "capsule",
             Primitive::Point { .. } => "point",
             Primitive::Profile(_) => "profile",
@@ -103,7 +113,7 @@ impl Primitive {
         match self {
             Primitive::Box { .. } => 8,
             Primitive::Convex(c) => c.vertices.len(),
-            Primitive::Cylinder { .. } | Primitive::Capsule { .. } => 2,
+            Primitive::Cylinder { .. } | Primitive::Cone { .. } | Primitive::Capsule { .. } => 2,
             _ => 1,
         }
     }
@@ -285,6 +295,154 @@ fn capsule_convex(
     inflated(g, r, part.rounding)
 }
 
+/// The point of end circle `k` of a cylinder or cone (on a body at `pose`) deepest along
+/// −`n`: where the circle first meets a face of normal `n` (a cone's apex is a circle of
+/// radius 0).
+fn deepest_on_end(rev: &Revolution, pose: &Pose, k: usize, n: &Vector3<f64>) -> Vector3<f64> {
+    let (along, radius) = rev.end(k);
+    let a = pose.dir(&rev.axis);
+    let end = pose.point(&(rev.center + rev.axis * along));
+    // deepest rim point: the in-plane direction most opposed to the normal
+    let w = -(n - a * a.dot(n));
+    let w = if w.norm() > 1e-12 {
+        w.normalize()
+    } else {
+        any_orthogonal(&a)
+    };
+    end + w * radius
+}
+
+/// Fixed-point steps that find where an end circle meets a convex part or a mesh: one on a
+/// face, a few where the circle's deepest point crosses from one feature to the next.
+const END_CIRCLE_STEPS: usize = 8;
+
+/// Candidate `k` of a cylinder or cone (body 1) against a convex part or a mesh (body 2),
+/// without the part's rounding: its two end circles, each at its point deepest along the
+/// normal of the surface there (a fixed point: the normal at the circle's deepest point
+/// gives the next one; on a face, one step), so a cylinder lying on a face touches at both
+/// ends and a cone at its apex and its base; against a convex part, also each vertex of
+/// the part against the cylinder or cone, each edge of the part across a cylinder's side
+/// (`edge_against_side`), and the part's point of the deepest pair of the
+/// two (GJK/EPA) against it where that is deeper than all of those, as where an edge lies
+/// across the side. The last is a point of the part against the exact surface, so its
+/// normal is the round surface's, never the estimate of the search.
+fn revolution_solid(
+    rev: &Revolution,
+    p1: &Pose,
+    solid: &Primitive,
+    p2: &Pose,
+    k: usize,
+) -> ContactGeometry {
+    let far = ContactGeometry {
+        gap: OUT_OF_REACH,
+        normal: Vector3::z(),
+        point1: p1.x,
+        point2: p1.x,
+    };
+    // a point of the part against the cylinder or cone
+    let against_round = |y: Vector3<f64>| {
+        let s = rev.surface(&p1.local(&y));
+        ContactGeometry {
+            gap: s.distance,
+            normal: -p1.dir(&s.normal),
+            point1: p1.point(&s.point),
+            point2: y,
+        }
+    };
+    if k < 2 {
+        let (along, _) = rev.end(k);
+        let mut x = p1.point(&(rev.center + rev.axis * along));
+        let mut s = surface_of(solid, p2, &x);
+        let mut n = p2.dir(&s.normal);
+        for _ in 0..END_CIRCLE_STEPS {
+            x = deepest_on_end(rev, p1, k, &n);
+            s = surface_of(solid, p2, &x);
+            let next = p2.dir(&s.normal);
+            let settled = (next - n).norm() <= 1e-12;
+            n = next;
+            if settled {
+                break;
+            }
+        }
+        return ContactGeometry {
+            gap: s.distance,
+            normal: n,
+            point1: x,
+            point2: p2.point(&s.point),
+        };
+    }
+    let Primitive::Convex(part) = solid else {
+        return far;
+    };
+    let nv = part.vertices.len();
+    if k < 2 + nv {
+        return against_round(p2.point(&part.vertices[k - 2]));
+    }
+    let ne = rev.side_edges(part);
+    if k < 2 + nv + ne {
+        let [i, j] = part.edges[k - 2 - nv];
+        let (a, b) = (p2.point(&part.vertices[i]), p2.point(&part.vertices[j]));
+        return edge_against_side(rev, p1, &a, &b).unwrap_or(far);
+    }
+    let Some(y) = part.deepest_point_against(p2, rev, p1) else {
+        return far;
+    };
+    let g = against_round(y);
+    let others = (0..2 + nv + ne)
+        .map(|j| revolution_solid(rev, p1, solid, p2, j).gap)
+        .fold(f64::MAX, f64::min);
+    if g.gap >= others - 1e-9 * rev.size().max(part.size()) {
+        return far;
+    }
+    g
+}
+
+/// An edge `a`–`b` (inertial) of a part against the side of a cylinder (on a body at
+/// `pose`), where the two cross: the closest points of the edge's line and the axis's,
+/// when they lie inside both the edge and the axis (elsewhere the part's vertices and the
+/// end circles hold the contact), none where they are parallel. A cylinder lying across a
+/// narrow bar rests on the bar's two edges, so it does not rock.
+fn edge_against_side(
+    rev: &Revolution,
+    pose: &Pose,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+) -> Option<ContactGeometry> {
+    let p = pose.point(&(rev.center - rev.axis * rev.half_length));
+    let d1 = pose.dir(&rev.axis) * (2.0 * rev.half_length);
+    let d2 = b - a;
+    let r = p - a;
+    let (aa, bb, cc, ee, ff) = (
+        d1.dot(&d1),
+        d1.dot(&d2),
+        d1.dot(&r),
+        d2.dot(&d2),
+        d2.dot(&r),
+    );
+    let denom = aa * ee - bb * bb;
+    if denom <= 1e-12 * aa * ee {
+        return None;
+    }
+    let s = (bb * ff - cc * ee) / denom;
+    let t = (aa * ff - bb * cc) / denom;
+    if s <= 0.0 || s >= 1.0 || t <= 0.0 || t >= 1.0 {
+        return None;
+    }
+    let on_axis = p + d1 * s;
+    let on_edge = a + d2 * t;
+    let d = (on_axis - on_edge).norm();
+    if d == 0.0 {
+        return None;
+    }
+    let normal = (on_axis - on_edge) / d;
+    Some(ContactGeometry {
+        gap: d - rev.radius,
+        normal,
+        point1: on_axis - normal * rev.radius,
+        point2: on_edge,
+    })
+}
+
 /// Candidate `k` between two convex parts: a vertex of `a` against `b`, a vertex of `b`
 /// against `a`, or (the last) the deepest point of the two by GJK/EPA, which holds what no
 /// vertex sees: two edges crossing, or an edge lying across a face it overhangs. It is in
@@ -427,23 +585,9 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
                         *radius,
                     )
                 }
-                Primitive::Cylinder {
-                    center,
-                    axis,
-                    radius,
-                    half_length,
-                } => {
-                    let sign = if k == 0 { -1.0 } else { 1.0 };
-                    let a = p1.dir(&axis.normalize());
-                    let end = p1.point(&(center + axis.normalize() * (sign * half_length)));
-                    // deepest rim point: the in-plane direction most opposed to the normal
-                    let w = -(n - a * a.dot(&n));
-                    let w = if w.norm() > 1e-12 {
-                        w.normalize()
-                    } else {
-                        any_orthogonal(&a)
-                    };
-                    point_plane(end + w * *radius, pp, n, 0.0)
+                Primitive::Cylinder { .. } | Primitive::Cone { .. } => {
+                    let rev = Revolution::of(s1).expect("a cylinder or a cone");
+                    point_plane(deepest_on_end(&rev, p1, k, &n), pp, n, 0.0)
                 }
                 Primitive::Convex(c) => point_plane(p1.point(&c.vertices[k]), pp, n, c.rounding),
                 Primitive::Plane { .. } | Primitive::Profile(_) | Primitive::Mesh(_) => {
@@ -466,6 +610,21 @@ pub fn closest(s1: &Primitive, p1: &Pose, s2: &Primitive, p2: &Pose, k: usize) -
             against_surface(p1.point(&a.vertices[k]), a.rounding, solid, p2)
         }
         (Primitive::Convex(a), Primitive::Convex(b)) => convex_convex(a, p1, b, p2, k),
+        (
+            round @ (Primitive::Cylinder { .. } | Primitive::Cone { .. }),
+            solid @ (Primitive::Convex(_) | Primitive::Mesh(_)),
+        ) => {
+            let rev = Revolution::of(round).expect("a cylinder or a cone");
+            let rounding = match solid {
+                Primitive::Convex(c) => c.rounding,
+                _ => 0.0,
+            };
+            let g = revolution_solid(&rev, p1, solid, p2, k);
+            match g.gap {
+                OUT_OF_REACH => g,
+                _ => inflated(g, 0.0, rounding),
+            }
+        }
         (
             Primitive::Capsule {
                 center,
