@@ -158,30 +158,41 @@ fn evaluations(c: &mut Criterion) {
     g.finish();
 }
 
-fn cam_follower_steps(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/cam-follower/scene.yaml");
-    let scene = Scene::load(&path).unwrap();
-    let mut g = c.benchmark_group("cam-follower");
-    g.sample_size(10);
-    g.bench_function("step (roller on the cam, 2 candidates)", |b| {
-        b.iter_batched(
-            || {
-                let mut sim = scene.simulation().unwrap();
-                // past the drop: the roller rides the cam
-                sim.run_until(0.1, |_, _| {}).unwrap();
-                sim
-            },
-            |mut sim| {
-                for _ in 0..100 {
-                    sim.step().unwrap();
-                }
-                black_box(sim.state.t)
-            },
-            criterion::BatchSize::LargeInput,
-        )
-    });
-    g.finish();
+/// 100 steps of a bundled cam scene once its roller rides the cam: the cam follower (a
+/// roller on a profile, a prismatic guide) and the cam rocker (the same pair, a pivot with
+/// clearance, a spring).
+fn cam_steps(c: &mut Criterion) {
+    for (study, ride, what) in [
+        ("cam-follower", 0.1, "roller on the cam, 2 candidates"),
+        ("cam-rocker", 0.02, "roller on the cam, clearance pivot"),
+    ] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("studies")
+            .join(study)
+            .join("scene.yaml");
+        let scene = Scene::load(&path).unwrap();
+        let mut g = c.benchmark_group(study);
+        g.sample_size(10);
+        g.bench_function(format!("100 steps ({what})"), |b| {
+            b.iter_batched(
+                || {
+                    let mut sim = scene.simulation().unwrap();
+                    // past the drop: the roller rides the cam
+                    sim.run_until(ride, |_, _| {}).unwrap();
+                    sim
+                },
+                |mut sim| {
+                    for _ in 0..100 {
+                        sim.step().unwrap();
+                    }
+                    black_box(sim.state.t)
+                },
+                criterion::BatchSize::LargeInput,
+            )
+        });
+        g.finish();
+    }
 }
 
-criterion_group!(benches, evaluations, cam_follower_steps);
+criterion_group!(benches, evaluations, cam_steps);
 criterion_main!(benches);
