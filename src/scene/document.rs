@@ -494,6 +494,12 @@ impl Node for ContactSpec {
 impl Node for PrimitiveSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         const L: Dim = Dim::LENGTH;
+        // the key of a cylinder, cone or capsule, which share their fields
+        let round = match self {
+            PrimitiveSpec::Cylinder { .. } => "cylinder",
+            PrimitiveSpec::Cone { .. } => "cone",
+            _ => "capsule",
+        };
         match self {
             PrimitiveSpec::Sphere { radius, center } => v.node(
                 "sphere",
@@ -528,36 +534,20 @@ impl Node for PrimitiveSpec {
                 length,
                 axis,
                 center,
-            } => v.node(
-                "cylinder",
-                &mut With(|v: &mut dyn Visitor| {
-                    v.required("radius", radius, L);
-                    v.required("length", length, L);
-                    v.vector("axis", axis, Dim::NONE, Some(&Z_AXIS));
-                    v.vector("center", center, L, Some(&ZERO));
-                }),
-            ),
-            PrimitiveSpec::Cone {
+            }
+            | PrimitiveSpec::Cone {
+                radius,
+                length,
+                axis,
+                center,
+            }
+            | PrimitiveSpec::Capsule {
                 radius,
                 length,
                 axis,
                 center,
             } => v.node(
-                "cone",
-                &mut With(|v: &mut dyn Visitor| {
-                    v.required("radius", radius, L);
-                    v.required("length", length, L);
-                    v.vector("axis", axis, Dim::NONE, Some(&Z_AXIS));
-                    v.vector("center", center, L, Some(&ZERO));
-                }),
-            ),
-            PrimitiveSpec::Capsule {
-                radius,
-                length,
-                axis,
-                center,
-            } => v.node(
-                "capsule",
+                round,
                 &mut With(|v: &mut dyn Visitor| {
                     v.required("radius", radius, L);
                     v.required("length", length, L);

@@ -238,23 +238,20 @@ impl ConvexPart {
             parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
         );
         let (h, r) = (round.half_length, round.radius);
-        let c = if round.cone {
-            let cone = parry3d_f64::shape::Cone::new(h, r);
-            parry3d_f64::query::details::contact_support_map_support_map(
-                &pos12,
-                &cone,
-                &self.shape,
-                f64::MAX,
-            )
-        } else {
-            let cylinder = parry3d_f64::shape::Cylinder::new(h, r);
-            parry3d_f64::query::details::contact_support_map_support_map(
-                &pos12,
-                &cylinder,
-                &self.shape,
-                f64::MAX,
-            )
-        }?;
+        let (cone, cylinder) = (
+            parry3d_f64::shape::Cone::new(h, r),
+            parry3d_f64::shape::Cylinder::new(h, r),
+        );
+        let shape: &dyn parry3d_f64::shape::SupportMap = match round.cone {
+            true => &cone,
+            false => &cylinder,
+        };
+        let c = parry3d_f64::query::details::contact_support_map_support_map(
+            &pos12,
+            shape,
+            &self.shape,
+            f64::MAX,
+        )?;
         Some(pose.point(&from_parry(c.point2)))
     }
 
