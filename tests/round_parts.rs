@@ -3,6 +3,8 @@
 //! a narrow bar, carries its weight and stays level with friction; a cone lying on its side
 //! shares its weight between apex and base as rigid statics says.
 
+mod common;
+
 use mc_study::integrator::Simulation;
 use mc_study::scene::Scene;
 use nalgebra::Vector3;
@@ -99,32 +101,73 @@ contacts:
     }
 }
 
-/// A cylinder dropped 0.5 mm onto a convex slab with μ = 0.3 lands on both end circles
-/// and rests level, carrying m g; one dropped across a bar 10 mm wide, whose edges are
-/// the only parts that reach it (no end circle and no corner of the bar does), rests on
-/// the bar's face through the deepest point of the two.
+/// A mesh floor, 300 mm square, cut into 3 × 3 squares of two triangles (mm, OBJ).
+fn floor_obj() -> String {
+    let mut s = String::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            s += &format!("v {} {} 0\n", -150 + 100 * i, -150 + 100 * j);
+        }
+    }
+    let v = |i: usize, j: usize| 1 + i + 4 * j;
+    for j in 0..3 {
+        for i in 0..3 {
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
+        }
+    }
+    s
+}
+
+/// A cylinder 0.2 m long dropped 0.5 mm with μ = 0.3 lands on both end circles and rests
+/// level, carrying m g: on a convex slab, and on a mesh floor whose triangles' sides run
+/// under its end circles. One dropped across a bar 10 mm wide, which no end circle and
+/// no corner of the bar reaches, rests on the bar's two top edges.
 #[test]
-fn a_cylinder_rests_level_on_a_slab_and_across_a_narrow_bar() {
+fn a_cylinder_rests_level_on_a_slab_a_mesh_and_across_a_narrow_bar() {
     let (r, m) = (0.02, 0.5);
-    for (label, slab) in [
-        ("slab", box_rows([0.5, 0.5, 0.05], [0.0, 0.0, -0.05])),
-        ("bar", box_rows([0.005, 0.1, 0.05], [0.0, 0.0, -0.05])),
+    let dir = common::scratch("round_parts_floor");
+    std::fs::write(dir.join("floor.obj"), floor_obj()).unwrap();
+    for (label, against) in [
+        (
+            "slab",
+            format!(
+                "{{ convex: {{ vertices: [{}] }} }}",
+                box_rows([0.5, 0.5, 0.05], [0.0, 0.0, -0.05])
+            ),
+        ),
+        (
+            "mesh",
+            "{ mesh: { file: floor.obj, scale: 1 mm } }".to_string(),
+        ),
+        (
+            "bar",
+            format!(
+                "{{ convex: {{ vertices: [{}] }} }}",
+                box_rows([0.005, 0.1, 0.05], [0.0, 0.0, -0.05])
+            ),
+        ),
     ] {
         let yaml = format!(
             r#"
 duration: 1 s
 integrator: {{ h: 1 ms, solver: {{ tolerance: 1e-12 }} }}
 bodies:
-  - {{ name: rod, mass: {m} kg, shape: {{ cylinder: {{ radius: {r}, length: 0.3 }} }}, orientation: {{ axis: [0, 1, 0], angle: 90 deg }}, position: [0, 0, 0.0205] }}
+  - {{ name: rod, mass: {m} kg, shape: {{ cylinder: {{ radius: {r}, length: 0.2 }} }}, orientation: {{ axis: [0, 1, 0], angle: 90 deg }}, position: [0, 0, 0.0205] }}
 contacts:
   - name: seat
     body: rod
-    shape: {{ cylinder: {{ radius: {r}, length: 0.3 }} }}
-    against_shape: {{ convex: {{ vertices: [{slab}] }} }}
+    shape: {{ cylinder: {{ radius: {r}, length: 0.2 }} }}
+    against_shape: {against}
     mu: 0.3
 "#
         );
-        let mut sim = simulation(&yaml);
+        let path = dir.join("scene.yaml");
+        std::fs::write(&path, &yaml).unwrap();
+        let mut sim = Scene::load(&path)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .simulation()
+            .unwrap();
         sim.run_until(1.0, |_, _| {}).unwrap();
         let pose = sim.state.poses[0];
         let axis = pose.p * Vector3::z();
