@@ -313,7 +313,9 @@ fn deepest_on_end(rev: &Revolution, pose: &Pose, k: usize, n: &Vector3<f64>) -> 
 }
 
 /// Fixed-point steps that find where an end circle meets a convex part or a mesh: one on a
-/// face, a few where the circle's deepest point crosses from one feature to the next.
+/// face, a few where the circle's deepest point crosses from one feature to the next. The
+/// last point found is a material point of the circle against the surface whatever the
+/// count, so its gap and normal agree with each other.
 const END_CIRCLE_STEPS: usize = 8;
 
 /// Candidate `k` of a cylinder or cone (body 1) against a convex part or a mesh (body 2),
@@ -322,10 +324,10 @@ const END_CIRCLE_STEPS: usize = 8;
 /// gives the next one; on a face, one step), so a cylinder lying on a face touches at both
 /// ends and a cone at its apex and its base; against a convex part, also each vertex of
 /// the part against the cylinder or cone, each edge of the part across a cylinder's side
-/// (`edge_against_side`), and the part's point of the deepest pair of the
-/// two (GJK/EPA) against it where that is deeper than all of those, as where an edge lies
-/// across the side. The last is a point of the part against the exact surface, so its
-/// normal is the round surface's, never the estimate of the search.
+/// (`edge_against_side`), and the part's point of the deepest pair of the two (GJK/EPA)
+/// against it where that is deeper than all of those, as where an edge lies across a
+/// cone's side or a cylinder's end face. The last is a point of the part against the exact
+/// surface, so its normal is the round surface's, never the estimate of the search.
 fn revolution_solid(
     rev: &Revolution,
     p1: &Pose,
