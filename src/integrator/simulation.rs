@@ -313,8 +313,15 @@ impl Simulation {
     pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
         let joints = &self.model.joints;
         let rows_at = |t: f64, poses: &[Pose]| self.model.joint_rows(t, poses);
-        // The contacts enter as copies: while settling, those that lose their friction
-        // with μ = 0.
+        // The contacts enter as copies: while settling, those that lose their friction with
+        // μ = 0; and, where positions are projected, those closed in the last step and
+        // approaching with e = 0. A closed contact (pressed, or in the last velocity problem
+        // and still touching, as the unloaded twin of a pressed ring is) has no impact to
+        // restitute: what its start-of-step rows show as approach is the turn of its frame
+        // over the last step (a journal sliding around its bore). Restitution on it pushed
+        // the journal off the wall at every step, gaining energy at coarse steps (0.08 J of
+        // 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting contact struck through
+        // another one has no approach at the step's start, so e changes nothing there.
         let settling = self.schedule.settling(self.state.t).is_some();
         let projected = self.params.scheme.projects();
         let closed = |i: usize| {
@@ -337,19 +344,18 @@ impl Simulation {
             })
             .collect();
         let refs: Vec<&ContactPoint> = points.iter().collect();
-        // The closed contacts (pressed, or in the last velocity problem and still touching,
-        // as the unloaded twin of a pressed ring is) act along their rows at mid-step and
-        // meet their velocity condition along those at the step's end, without restitution
-        // (`ActiveAt`). On start-of-step rows a journal sliding around its bore drifts into
-        // the wall. Without a projection nothing would take it out. With one, the
-        // projection lifts the journal back at every step, which is work done on the
-        // mechanism and an error of first order in h: a 10 mm clearance pendulum in its
-        // plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with these rows), and the mean
-        // load on a cam rocker's sliding pivot was 4 % off at h = 20 µs (2e-4 with them).
-        // Under a projection this holds only between bodies held in a plane: in space, a
-        // journal jammed between its flanges or tilted across its rings lets these rows
-        // pump an equal and opposite pair of impulses without bound (1e8 N·s, then a
-        // non-finite state, on the same pendulum swinging in space at h = 0.05).
+        // The closed contacts also act along their rows at mid-step and meet their velocity
+        // condition along those at the step's end (`ActiveAt`). On start-of-step rows a
+        // journal sliding around its bore drifts into the wall. Without a projection nothing
+        // would take it out. With one, the projection lifts the journal back at every step,
+        // which is work done on the mechanism and an error of first order in h: a 10 mm
+        // clearance pendulum in its plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with
+        // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
+        // h = 20 µs (2e-4 with them). Under a projection this holds only between bodies held
+        // in a plane: in space, a journal jammed between its flanges or tilted across its
+        // rings lets these rows pump an equal and opposite pair of impulses without bound
+        // (1e8 N·s, then a non-finite state, on the same pendulum swinging in space at
+        // h = 0.05).
         let persistent: Vec<usize> = (0..active.len())
             .filter(|&k| {
                 let c = &points[k];
