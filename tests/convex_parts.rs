@@ -155,30 +155,12 @@ fn a_box_given_as_a_convex_part_slides_and_stops_as_the_analytic_box() {
     }
 }
 
-/// A 3×3 grid of squares, two triangles each, at z = 0, wound to face +z (mm, OBJ).
-fn floor_obj() -> String {
-    let mut s = String::new();
-    for j in 0..4 {
-        for i in 0..4 {
-            s += &format!("v {} {} 0\n", -150 + 100 * i, -150 + 100 * j);
-        }
-    }
-    let v = |i: usize, j: usize| 1 + i + 4 * j;
-    for j in 0..3 {
-        for i in 0..3 {
-            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
-            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
-        }
-    }
-    s
-}
-
 /// Spheres resting on the mesh floor, one on a face, one on an edge and one on a vertex
 /// shared by six triangles: each contact carries m g to 1e-9, and none sinks in.
 #[test]
 fn a_sphere_resting_on_a_mesh_carries_its_weight() {
     let dir = scratch("mesh_floor");
-    std::fs::write(dir.join("floor.obj"), floor_obj()).unwrap();
+    std::fs::write(dir.join("floor.obj"), common::floor_obj()).unwrap();
     for (x, y, where_) in [
         (0.02, 0.03, "face"),
         (0.0, 0.03, "edge"),

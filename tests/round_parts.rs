@@ -101,24 +101,6 @@ contacts:
     }
 }
 
-/// A mesh floor, 300 mm square, cut into 3 × 3 squares of two triangles (mm, OBJ).
-fn floor_obj() -> String {
-    let mut s = String::new();
-    for j in 0..4 {
-        for i in 0..4 {
-            s += &format!("v {} {} 0\n", -150 + 100 * i, -150 + 100 * j);
-        }
-    }
-    let v = |i: usize, j: usize| 1 + i + 4 * j;
-    for j in 0..3 {
-        for i in 0..3 {
-            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
-            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
-        }
-    }
-    s
-}
-
 /// A cylinder 0.2 m long dropped 0.5 mm with μ = 0.3 lands on both end circles and rests
 /// level, carrying m g: on a convex slab, and on a mesh floor whose triangles' sides run
 /// under its end circles. One dropped across a bar 10 mm wide, which no end circle and
@@ -127,7 +109,7 @@ fn floor_obj() -> String {
 fn a_cylinder_rests_level_on_a_slab_a_mesh_and_across_a_narrow_bar() {
     let (r, m) = (0.02, 0.5);
     let dir = common::scratch("round_parts_floor");
-    std::fs::write(dir.join("floor.obj"), floor_obj()).unwrap();
+    std::fs::write(dir.join("floor.obj"), common::floor_obj()).unwrap();
     for (label, against) in [
         (
             "slab",

@@ -45,3 +45,22 @@ pub fn study_path(name: &str, file: &str) -> std::path::PathBuf {
         .join(name)
         .join(file)
 }
+
+/// A mesh floor, 300 mm square at z = 0, cut into 3 × 3 squares of two triangles each,
+/// wound to face +z (mm, OBJ).
+pub fn floor_obj() -> String {
+    let mut s = String::new();
+    for j in 0..4 {
+        for i in 0..4 {
+            s += &format!("v {} {} 0\n", -150 + 100 * i, -150 + 100 * j);
+        }
+    }
+    let v = |i: usize, j: usize| 1 + i + 4 * j;
+    for j in 0..3 {
+        for i in 0..3 {
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
+        }
+    }
+    s
+}
