@@ -64,7 +64,16 @@ impl Simulation {
         let before = loop {
             s = s.clamp(1e-3, 1.0 - 1e-3);
             self.h = s * h;
-            let part = self.compute()?;
+            // a part before the impact that is not resolved either (its trial leaves a
+            // bore, or its contact problem is unsolved) makes the step one to take in halves
+            let part = match self.compute() {
+                Ok(part) if !self.too_coarse(&part) => part,
+                part if !depth.may_halve() => part?,
+                _ => {
+                    self.h = h;
+                    return self.halves(t_end, depth.unsplit());
+                }
+            };
             tries += 1;
             match part.closing.iter().find(|c| c.candidate == i) {
                 Some(c) if s > 1e-3 && tries < 4 => s *= g0 / (g0 - c.end_gap) * (1.0 - 1e-6),

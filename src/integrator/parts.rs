@@ -21,6 +21,21 @@ pub(super) struct Depth {
     splits: usize,
 }
 
+impl Depth {
+    /// Whether the part may still be taken in halves.
+    pub(super) fn may_halve(&self) -> bool {
+        self.halvings < MAX_HALVINGS
+    }
+
+    /// The depth of the step a split was made in.
+    pub(super) fn unsplit(self) -> Depth {
+        Depth {
+            splits: self.splits - 1,
+            ..self
+        }
+    }
+}
+
 /// The impulses of the parts of a step, summed.
 pub(super) struct Sum {
     impulses: Vec<Vector3<f64>>,
@@ -72,7 +87,7 @@ impl Simulation {
             Err(_) => false,
             Ok(outcome) => self.too_coarse(outcome),
         };
-        if coarse && depth.halvings < MAX_HALVINGS {
+        if coarse && depth.may_halve() {
             return self.halves(t_end, depth);
         }
         let trial = trial?;
@@ -109,7 +124,7 @@ impl Simulation {
     }
 
     /// The step as two halves, each taken as `advance` takes a step.
-    fn halves(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
+    pub(super) fn halves(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
         let h = self.h;
         let top = depth.halvings == 0 && depth.splits == 0;
         let depth = Depth {
@@ -134,7 +149,7 @@ impl Simulation {
     /// Whether the step is too coarse for its contacts: the contact problem was not solved,
     /// or the projection found no admissible position. A coarse step on a clearance joint
     /// (a journal swept around its bore, or across it) is one such; its halves are not.
-    fn too_coarse(&self, trial: &Outcome) -> bool {
+    pub(super) fn too_coarse(&self, trial: &Outcome) -> bool {
         let projected = self.params.scheme.projects();
         !trial.vs.solver.converged || (projected && !trial.report.projection.converged)
     }
