@@ -198,16 +198,8 @@ impl ConvexPart {
         other: &ConvexPart,
         p2: &crate::mechanics::Pose,
     ) -> Option<super::ContactGeometry> {
-        // other's frame relative to ours: pos12 maps other's local points into ours
-        let rel_q = p1.p.inverse() * p2.p;
-        let rel_x = p1.local(&p2.x);
-        let q = rel_q.quaternion();
-        let pos12 = parry3d_f64::math::Pose::from_parts(
-            to_parry(&rel_x),
-            parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
-        );
         let c = parry3d_f64::query::details::contact_support_map_support_map(
-            &pos12,
+            &relative(p1, p2),
             &self.shape,
             &other.shape,
             f64::MAX,
@@ -232,11 +224,6 @@ impl ConvexPart {
             x: round_pose.point(&round.center),
             p: round_pose.p * upright,
         };
-        let q = (frame.p.inverse() * pose.p).into_inner();
-        let pos12 = parry3d_f64::math::Pose::from_parts(
-            to_parry(&frame.local(&pose.x)),
-            parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
-        );
         let (h, r) = (round.half_length, round.radius);
         let (cone, cylinder) = (
             parry3d_f64::shape::Cone::new(h, r),
@@ -247,7 +234,7 @@ impl ConvexPart {
             false => &cylinder,
         };
         let c = parry3d_f64::query::details::contact_support_map_support_map(
-            &pos12,
+            &relative(&frame, pose),
             shape,
             &self.shape,
             f64::MAX,
@@ -275,6 +262,16 @@ impl ConvexPart {
         )?;
         Some(geometry(&c, pose, pose))
     }
+}
+
+/// The pose of frame `p2` relative to frame `p1`, as parry's `pos12`: it maps points of
+/// shape 2's frame into shape 1's.
+fn relative(p1: &crate::mechanics::Pose, p2: &crate::mechanics::Pose) -> parry3d_f64::math::Pose {
+    let q = (p1.p.inverse() * p2.p).into_inner();
+    parry3d_f64::math::Pose::from_parts(
+        to_parry(&p1.local(&p2.x)),
+        parry3d_f64::math::Rotation::from_xyzw(q.i, q.j, q.k, q.w),
+    )
 }
 
 /// A parry contact between shapes 1 and 2 (their points in their own frames, at poses `p1`

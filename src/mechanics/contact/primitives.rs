@@ -230,6 +230,16 @@ fn inflated(g: ContactGeometry, r1: f64, r2: f64) -> ContactGeometry {
     }
 }
 
+/// A candidate out of play, placed at `at`: its gap is `OUT_OF_REACH`.
+fn out_of_reach(at: Vector3<f64>) -> ContactGeometry {
+    ContactGeometry {
+        gap: OUT_OF_REACH,
+        normal: Vector3::z(),
+        point1: at,
+        point2: at,
+    }
+}
+
 /// Candidate `k` of a capsule (its axis `a`–`b`, radius `r`) against a convex part: its
 /// two end spheres; each vertex of the part against the capsule; and the deepest point of
 /// the axis and the part (GJK/EPA) where it is deeper than all of those, as where the
@@ -247,12 +257,7 @@ fn capsule_convex(
         let d = b - a;
         a + d * ((x - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
     };
-    let far = ContactGeometry {
-        gap: OUT_OF_REACH,
-        normal: Vector3::z(),
-        point1: *a,
-        point2: *a,
-    };
+    let far = out_of_reach(*a);
     let g = match k {
         0 | 1 => {
             let x = if k == 0 { *a } else { *b };
@@ -335,12 +340,7 @@ fn revolution_solid(
     p2: &Pose,
     k: usize,
 ) -> ContactGeometry {
-    let far = ContactGeometry {
-        gap: OUT_OF_REACH,
-        normal: Vector3::z(),
-        point1: p1.x,
-        point2: p1.x,
-    };
+    let far = out_of_reach(p1.x);
     // a point of the part against the cylinder or cone
     let against_round = |y: Vector3<f64>| {
         let s = rev.surface(&p1.local(&y));
@@ -494,12 +494,7 @@ fn sharp_convex_convex(
             point2: y,
         };
     }
-    let far = ContactGeometry {
-        gap: OUT_OF_REACH,
-        normal: Vector3::z(),
-        point1: p1.x,
-        point2: p1.x,
-    };
+    let far = out_of_reach(p1.x);
     let Some(deepest) = a.deepest(p1, b, p2) else {
         return far;
     };
