@@ -127,6 +127,44 @@ fn located_impacts_on_a_jammed_journal_keep_its_impulses_bounded() {
     );
 }
 
+/// A step that carries the journal across its 0.1 mm axial play leaves one flange and
+/// strikes the other, whose rim points face those of the first on the same lines. Both in
+/// the velocity problem, their conditions held at one axial velocity only, and round-off
+/// drove the solver along the pair: over 5 s in space the largest impulse was 113 N·s at
+/// h = 0.01 and 37 N·s at 0.03 (e = 0.5), 1e7 N·s at 0.03 with e = 0, 3.9e7 N·s with
+/// located impacts, where the bar's weight over a step is 0.3 N·s; the bar gained 0.31 J
+/// at 0.03. The flange the step leaves now stays out of the velocity problem while the one
+/// it strikes holds.
+#[test]
+fn a_journal_crossing_its_axial_play_is_not_squeezed_between_its_flanges() {
+    for located in [false, true] {
+        for e in [0.5, 0.0] {
+            for h in [0.03, 0.02, 0.01] {
+                let mut scene = extremes::coarse_clearance_pendulum(h, false, 5.0).scene;
+                scene.set_parameter("joints.pivot.e", e).unwrap();
+                scene.params.locate_impacts = located;
+                let mut sim = common::simulation(scene);
+                let e0 = sim.energy();
+                let (mut rise, mut largest): (f64, f64) = (0.0, 0.0);
+                sim.run_until(5.0, |s, _| {
+                    rise = rise.max(s.energy() - e0);
+                    for p in s.impulses() {
+                        largest = largest.max(p.norm());
+                    }
+                })
+                .unwrap_or_else(|err| panic!("{err}"));
+                let case = format!("located {located}, e = {e}, h = {h}");
+                assert!(largest < 5.0, "{case}: an impulse of {largest:.3e} N·s");
+                // the start-of-step rows of a journal sliding in its bore, lifted back by
+                // the projection, still give up to 8e-3 J at 0.03 (docs/fidelity.md)
+                let allowed = if h == 0.03 { 0.02 } else { 1e-12 };
+                assert!(rise < allowed, "{case}: energy rose by {rise:.3e} J");
+                assert!(sim.stats.max_penetration < 1e-9, "{case}");
+            }
+        }
+    }
+}
+
 /// Plain Moreau–Jean keeps no position constraint: its penetration is the depth its impacts
 /// reach within their steps, O(h). Sliding along the concave bore adds none of its own: a
 /// contact that stays closed takes its impulse on the rows at mid-step and its velocity

@@ -6,6 +6,7 @@ pub mod assembly;
 mod impact;
 pub mod iteration_matrix;
 pub mod moreau_jean;
+mod opposed;
 pub mod params;
 mod parts;
 pub mod projection;

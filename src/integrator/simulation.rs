@@ -310,7 +310,36 @@ impl Simulation {
         p
     }
 
+    /// The velocity step with the contacts `active`, but for those that face another one
+    /// which the step's motion closes first (`opposed.rs`): they take no impulse.
     pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
+        let dropped = self.behind_opposed(active);
+        if !dropped.iter().any(|&d| d) {
+            return self.velocity_of(active);
+        }
+        let kept: Vec<usize> = active
+            .iter()
+            .zip(&dropped)
+            .filter(|(_, &d)| !d)
+            .map(|(&i, _)| i)
+            .collect();
+        let mut vs = self.velocity_of(&kept);
+        let mut it = vs.impulses.into_iter();
+        vs.impulses = dropped
+            .iter()
+            .map(|&d| {
+                if d {
+                    Vector3::zeros()
+                } else {
+                    it.next().expect("one per kept")
+                }
+            })
+            .collect();
+        vs
+    }
+
+    /// The velocity step with exactly the contacts `active`.
+    fn velocity_of(&self, active: &[usize]) -> VelocityStep {
         let joints = &self.model.joints;
         let rows_at = |t: f64, poses: &[Pose]| self.model.joint_rows(t, poses);
         // The contacts enter as copies: while settling, those that lose their friction with
