@@ -28,6 +28,21 @@ fn rise_and_penetration(sim: &mut Simulation, t: f64) -> (f64, f64) {
     (rise, sim.stats.max_penetration)
 }
 
+/// Runs to `t` and returns the largest rise of the total energy above its start and the
+/// largest impulse any contact took in a step.
+fn rise_and_largest_impulse(sim: &mut Simulation, t: f64) -> (f64, f64) {
+    let e0 = sim.energy();
+    let (mut rise, mut largest): (f64, f64) = (0.0, 0.0);
+    sim.run_until(t, |s, _| {
+        rise = rise.max(s.energy() - e0);
+        for p in s.impulses() {
+            largest = largest.max(p.norm());
+        }
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    (rise, largest)
+}
+
 /// A frictionless joint with e ≤ 1 can only lose energy. Under combined projection, in
 /// its plane, the pendulum gains none at h = 0.03, 0.02, 0.01 and 1e-3 (it gained 0.08 J
 /// at 0.01 when restitution acted on the journal sliding around its bore, and 8.9e-3 J at
@@ -108,15 +123,7 @@ fn located_impacts_on_a_jammed_journal_keep_its_impulses_bounded() {
     let mut scene = extremes::coarse_clearance_pendulum(0.03, false, 5.0).scene;
     scene.params.locate_impacts = true;
     let mut sim = common::simulation(scene);
-    let e0 = sim.energy();
-    let (mut rise, mut largest): (f64, f64) = (0.0, 0.0);
-    sim.run_until(5.0, |s, _| {
-        rise = rise.max(s.energy() - e0);
-        for k in 0..s.contact_points().len() {
-            largest = largest.max(s.impulses()[k].norm());
-        }
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
+    let (rise, largest) = rise_and_largest_impulse(&mut sim, 5.0);
     assert!(largest < 100.0, "an impulse of {largest:.3e} N·s");
     assert!(rise < 1e-12, "energy rose by {rise:.3e} J");
     assert!(sim.stats.impact_splits > 0);
@@ -144,15 +151,7 @@ fn a_journal_crossing_its_axial_play_is_not_squeezed_between_its_flanges() {
                 scene.set_parameter("joints.pivot.e", e).unwrap();
                 scene.params.locate_impacts = located;
                 let mut sim = common::simulation(scene);
-                let e0 = sim.energy();
-                let (mut rise, mut largest): (f64, f64) = (0.0, 0.0);
-                sim.run_until(5.0, |s, _| {
-                    rise = rise.max(s.energy() - e0);
-                    for p in s.impulses() {
-                        largest = largest.max(p.norm());
-                    }
-                })
-                .unwrap_or_else(|err| panic!("{err}"));
+                let (rise, largest) = rise_and_largest_impulse(&mut sim, 5.0);
                 let case = format!("located {located}, e = {e}, h = {h}");
                 assert!(largest < 5.0, "{case}: an impulse of {largest:.3e} N·s");
                 // the start-of-step rows of a journal sliding in its bore, lifted back by

@@ -27,7 +27,6 @@ impl Simulation {
     pub(super) fn behind_opposed(&self, active: &[usize]) -> Vec<bool> {
         let p = self.step_params();
         let v0 = self.state.v.as_slice();
-        let forecast = |c: &ContactPoint| c.gap() + p.gamma * p.h * c.local_velocity(v0).x;
         // the normal oriented from the body of higher index to the lower, and that pair
         let oriented = |c: &ContactPoint| {
             let n = c.normal();
@@ -40,7 +39,7 @@ impl Simulation {
             .iter()
             .map(|&i| {
                 let c = &self.points[i];
-                (!self.is_guard(i) && !c.gap_law).then(|| (oriented(c), forecast(c)))
+                (!self.is_guard(i) && !c.gap_law).then(|| (oriented(c), p.forecast(c, v0)))
             })
             .collect();
         facing

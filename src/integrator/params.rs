@@ -1,5 +1,6 @@
 //! Integration parameters with documented defaults (never magic numbers in the loop).
 
+use crate::mechanics::ContactPoint;
 use crate::solver::NsgsOptions;
 
 /// Which time-stepping scheme runs. All share one velocity step.
@@ -150,6 +151,13 @@ impl Default for IntegrationParameters {
 }
 
 impl IntegrationParameters {
+    /// The activation forecast of contact `c` over a step of size `h` from the velocities
+    /// `v0`: g + γ h u_N. The contact enters the velocity problem when it is at most
+    /// `activation_margin`.
+    pub fn forecast(&self, c: &ContactPoint, v0: &[f64]) -> f64 {
+        c.gap() + self.gamma * self.h * c.local_velocity(v0).x
+    }
+
     /// Checks every value; the error names the offending field.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         let positive = |name: &'static str, x: f64| {

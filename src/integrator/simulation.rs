@@ -544,9 +544,7 @@ impl Simulation {
                 })?;
         }
         let v0 = &self.state.v;
-        let forecast = |c: &ContactPoint| {
-            c.gap() + p.gamma * p.h * c.local_velocity(v0.as_slice()).x <= p.activation_margin
-        };
+        let forecast = |c: &ContactPoint| p.forecast(c, v0.as_slice()) <= p.activation_margin;
         let mut report = StepReport::default();
         let outcome = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
