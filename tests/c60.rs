@@ -136,10 +136,10 @@ fn latched_state_does_not_depend_on_the_step() {
 /// the scene's steps with the solver at 1e-8 (the convergence study's reference tolerance:
 /// this checks the model, not the solver), and the 1 nm outputs are the mean over six
 /// perturbations of every step by k·1e-6, k = 0…5 (measured: the trip and opening times
-/// 1.4e-4 and 1.3e-4 from the ideal's, the tripping force 3.7e-4; single runs −5.6e-4 to
-/// +4.9e-4). The geometric FCs converge at first order (asserted: at least 50-fold per
-/// 100-fold in c; 100-fold twice measured), FC-1 noisily (asserted 2-fold at 100 nm and
-/// 100-fold over both decades; 4.5-fold and 150-fold measured): the small journals chatter
+/// 1.8e-5 and 5.0e-5 from the ideal's, the tripping force 5.4e-4). The geometric FCs
+/// converge at first order (asserted: at least 50-fold per 100-fold in c; 100-fold twice
+/// measured), FC-1 noisily (asserted 2-fold at 100 nm and 100-fold over both decades;
+/// 8-fold and 1300-fold measured): the small journals chatter
 /// without friction, and the main contact's force with them. At the nominal 0.07 mm FC-1
 /// and FC-4 differ by percents: the comparison resolves the clearance effect it checks.
 #[test]

@@ -45,8 +45,8 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     // a scene without a refinement window has no extrapolation rung
     let ball_scene = Ladder::around_scene(scene, 2);
     assert_eq!(ball_scene.fidelities.len(), 13);
-    // the circuit breaker's extrapolated window gets a rung without the extrapolation, and
-    // its recommendation says what to change in the scene
+    // the circuit breaker's plain window gets a rung with the extrapolation, and its
+    // recommendation says what to change in the scene
     let c60 = Study::load(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/c60/study.yaml"),
         None,
@@ -62,11 +62,11 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
         .filter(|f| f.extrapolate.is_some())
         .collect();
     assert_eq!(window.len(), 1);
-    assert_eq!(window[0].extrapolate, Some(false));
-    assert!(window[0].label().ends_with(" window not extrapolated"));
+    assert_eq!(window[0].extrapolate, Some(true));
+    assert!(window[0].label().ends_with(" window extrapolated"));
     assert!(window[0]
         .yaml()
-        .ends_with("# and in the scene: refine: { …, extrapolate: false }\n"));
+        .ends_with("# and in the scene: refine: { …, extrapolate: true }\n"));
     assert_eq!(c60_ladder.reference.extrapolate, None);
     assert!(
         labels.iter().any(|l| l.starts_with("fast: h=4e-4")),

@@ -74,6 +74,7 @@ fn random_instances_reach_the_tolerance() {
     let opts = NsgsOptions {
         tolerance: 1e-11,
         max_sweeps: 5000,
+        ..Default::default()
     };
     let mut worst_sweeps = 0;
     for n in [1usize, 2, 3, 5, 8, 13, 20, 35, 50] {
@@ -200,6 +201,7 @@ fn frictionless_case_equals_the_lcp_solution() {
             &NsgsOptions {
                 tolerance: 1e-13,
                 max_sweeps: 5000,
+                ..Default::default()
             },
         );
         assert!(st.converged);

@@ -78,7 +78,7 @@ impl Simulation {
             for (k, &i) in active.iter().enumerate() {
                 let c = &self.points[i];
                 let u0 = c.local_velocity(self.state.v.as_slice()).x;
-                let u1 = c.local_velocity(vs.v.as_slice()).x;
+                let u1 = vs.normal_speeds[k];
                 closed[i] =
                     vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
             }

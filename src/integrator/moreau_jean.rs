@@ -4,15 +4,15 @@
 //! q₁ = q₀ ⊕ h v_θ, with the active contacts' impulses from FC3D on the shifted local
 //! velocity U_N,₁ + e U_N,₀ (Newton impact law). A Newton loop handles nonlinear forces.
 //! A contact that closes within the step has its rows frozen at q₀ (so that an impact
-//! with e = 1 keeps the kinetic energy exactly); without a projection, one that was
-//! already closed is treated as the joints are (`ActiveAt`).
+//! with e = 1 keeps the kinetic energy exactly); one that was already closed is treated
+//! as the joints are (`ActiveAt`).
 
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
-use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, SolverStatus};
+use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, NsgsOptions, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
 /// The joints' bilateral rows evaluated at a time and poses.
@@ -29,10 +29,9 @@ pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
 /// O(h²) (a pendulum on a 10 mm clearance joint at h = 1e-4 sank 7.1e-4 m into its bore
 /// in 1 s with start-of-step rows, 3.2e-5 m with these), and steady sliding along a
 /// circle does no work. The Delassus matrix is then not symmetric, which slows the
-/// solver; the projecting schemes, which remove drift anyway, give none. A contact
-/// that closes within the step keeps the rows it is given: the same rows then measure its
-/// impulse and both velocities of Newton's law, which is what makes an impact with e = 1
-/// keep the kinetic energy and one with e < 1 lose it, at any step.
+/// solver. A contact that closes within the step keeps the rows it is given: the same rows
+/// then measure its impulse and both velocities of Newton's law, which is what makes an
+/// impact with e = 1 keep the kinetic energy and one with e < 1 lose it, at any step.
 pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
     pub persistent: Vec<usize>,
@@ -46,6 +45,10 @@ pub struct VelocityStep {
     pub v: DVector<f64>,
     /// Impulse (P_N, P_T1, P_T2) of each active contact, in its local frame.
     pub impulses: Vec<Vector3<f64>>,
+    /// Each active contact's normal velocity u_N,k+1 at the step's end, measured along the
+    /// rows its velocity condition was imposed on: the end rows of a persistent contact
+    /// whose normal turns, the start rows of any other.
+    pub normal_speeds: Vec<f64>,
     pub newton_iterations: usize,
     pub newton_converged: bool,
     /// Impulse of each bilateral row (joint reactions over the step).
@@ -78,6 +81,26 @@ pub fn advance_poses(
 /// its midpoint rows and meets its velocity condition on its end rows. Below, the start
 /// rows differ from those by less than the solver's tolerance.
 const NORMAL_TURN: f64 = 1e-6;
+
+/// Under a projection, a persistent contact whose normal turns by more than this over its
+/// step (a chord of 0.2, 11.5°) keeps its start rows: its rows at mid-step and at the end
+/// are then those of other points, not of one point sliding along its surface, which is
+/// what they stand for, and the projection removes the drift that start rows leave. A
+/// journal that one step throws across its bore is such a contact: on the circuit breaker
+/// with frictionless clearances of 1 nm, which must behave as the ideal mechanism,
+/// mid-step and end rows up to a chord of 0.5 put the opening 1.5–4e-3 early (11–30 µs,
+/// up to 1.1 σ of the toleranced study) over five perturbations of the step; up to 0.2,
+/// 1.6–2.3e-4, as start-of-step rows do. Plain Moreau–Jean, which nothing takes out of
+/// a wall, keeps these rows at any turn.
+const SWUNG: f64 = 0.2;
+
+/// Sweeps allowed a nonsymmetric contact problem (mid-step and end rows), with the global
+/// Newton method they try on the way but without the last resort, before the step falls
+/// back to its start-of-step rows. Gauss–Seidel needs symmetry to converge surely, and
+/// the last resort's proximal iterations once took 6 s to fail on one step of a
+/// circuit-breaker sample; the nominal sample's nonsymmetric problems take 1–14 sweeps and
+/// Newton iterations (37 once).
+const NONSYMMETRIC_SWEEPS: usize = 40;
 
 /// A contact's Jacobian blocks on its moving bodies: at most two, kept inline (a step
 /// builds them for every active contact).
@@ -322,17 +345,20 @@ pub fn velocity_step(
             for (k, &a) in c.persistent.iter().enumerate() {
                 // a normal that does not turn over the step keeps the start rows (and the
                 // Delassus matrix symmetric, which the solver's sweeps need to converge
-                // fast)
+                // fast), and so does one that swings (`SWUNG`)
                 let n0 = active[a].frame.row(0);
                 let turn = (at_mid[k].frame.row(0) - n0)
                     .norm()
                     .max((at_end[k].frame.row(0) - n0).norm());
-                if turn <= NORMAL_TURN {
+                let swung = params.scheme.projects() && turn > SWUNG;
+                if turn <= NORMAL_TURN || swung {
                     continue;
                 }
+                // the impulse and the velocity on the tangents of the start, carried over
+                let frame = &active[a].frame;
                 hblocks.get_or_insert_with(|| gblocks.clone())[a] =
-                    contact_blocks(&at_end[k], mask);
-                gblocks[a] = contact_blocks(&at_mid[k], mask);
+                    contact_blocks(&at_end[k].with_tangents_of(frame), mask);
+                gblocks[a] = contact_blocks(&at_mid[k].with_tangents_of(frame), mask);
             }
         }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
@@ -354,48 +380,48 @@ pub fn velocity_step(
             v = v_free_c;
             continue;
         }
-        // each contact's response W⁻¹Gᵀ, sparse over the bodies; with joints, constrained
-        // (y − W⁻¹Hᵀ S⁻¹ H y), keeping S⁻¹ H y for the joint impulses
-        let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-            gblocks.iter().map(|b| w.solve_contact(b)).collect();
-        let corrections: Vec<Option<DMatrix<f64>>> = match &elimination {
-            Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
-            None => Vec::new(),
-        };
-        let n = active.len();
-        // Delassus blocks W_cd = Σ_b H_cb y_db over the bodies b both contacts move: the
-        // responses indexed by body, so that only the nonzero blocks are formed
-        let mut responses: Vec<Vec<(usize, &Matrix6x3<f64>)>> = vec![Vec::new(); ndof / 6];
-        for (d, yd) in ys.iter().enumerate() {
-            for (b, y) in yd {
-                responses[*b].push((d, y));
-            }
-        }
-        let mut dmat = DMatrix::zeros(3 * n, 3 * n);
-        let mut q = DVector::zeros(3 * n);
-        for (c, bc) in hblocks.as_ref().unwrap_or(&gblocks).iter().enumerate() {
-            let mut qc = Vector3::zeros();
-            for (b, g) in bc.iter() {
-                qc += g * v_free_c.fixed_rows::<6>(6 * b);
-            }
-            qc.x += shift[c];
-            q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-            for (b, g) in bc.iter() {
-                for &(d, y) in &responses[*b] {
-                    let mut blk = dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d);
-                    blk += g * y;
+        // Mid-step and end rows make the Delassus matrix nonsymmetric. Where the solver does
+        // not solve that problem within `NONSYMMETRIC_SWEEPS`, the step solves it on its
+        // start-of-step rows instead, first order for that one step.
+        let ContactProblem {
+            ys, corrections, ..
+        } = loop {
+            let problem = contact_problem(
+                &w,
+                &elimination,
+                &gblocks,
+                hblocks.as_deref(),
+                &v_free_c,
+                &shift,
+            );
+            let nonsymmetric = hblocks.is_some();
+            let opts = match nonsymmetric {
+                true => NsgsOptions {
+                    max_sweeps: NONSYMMETRIC_SWEEPS.min(params.solver.max_sweeps),
+                    last_resort: false,
+                    ..params.solver
+                },
+                false => params.solver,
+            };
+            let before = nonsymmetric.then(|| r.clone());
+            status = solve_fc3d(
+                &Fc3d {
+                    w: &problem.w,
+                    q: &problem.q,
+                    mu: &mu,
+                },
+                &mut r,
+                &opts,
+            );
+            match before {
+                Some(before) if !status.converged => {
+                    r = before;
+                    hblocks = None;
+                    gblocks = active.iter().map(|c| contact_blocks(c, mask)).collect();
                 }
+                _ => break problem,
             }
-        }
-        status = solve_fc3d(
-            &Fc3d {
-                w: &dmat,
-                q: &q,
-                mu: &mu,
-            },
-            &mut r,
-            &params.solver,
-        );
+        };
         v = v_free_c;
         for (c, yc) in ys.iter().enumerate() {
             let p = r.fixed_rows::<3>(3 * c);
@@ -411,15 +437,87 @@ pub fn velocity_step(
             }
         }
     }
+    let normal_speeds = hblocks
+        .as_ref()
+        .unwrap_or(&gblocks)
+        .iter()
+        .map(|bc| {
+            bc.iter()
+                .map(|(b, g)| g.row(0).dot(&v.fixed_rows::<6>(6 * b).transpose()))
+                .sum()
+        })
+        .collect();
     VelocityStep {
         v,
         impulses: (0..active.len())
             .map(|c| r.fixed_rows::<3>(3 * c).into_owned())
             .collect(),
+        normal_speeds,
         joint_impulses: q_joint.iter().copied().collect(),
         newton_iterations: iterations,
         newton_converged: converged,
         solver: status,
+    }
+}
+
+/// The contact problem of a velocity step.
+struct ContactProblem {
+    /// Each contact's response W⁻¹Gᵀ along its impulse rows, sparse over the bodies; with
+    /// joints, constrained (y − W⁻¹Hᵀ S⁻¹ H y).
+    ys: Vec<Vec<(usize, Matrix6x3<f64>)>>,
+    /// S⁻¹ H y of each contact: what its impulse takes from the joints' ones.
+    corrections: Vec<Option<DMatrix<f64>>>,
+    /// The Delassus matrix and the free local velocity (shifted by the impact law).
+    w: DMatrix<f64>,
+    q: DVector<f64>,
+}
+
+/// The contact problem with impulses along `gblocks` and velocities measured along
+/// `hblocks`, or `gblocks` where the rows are the same.
+fn contact_problem(
+    w: &IterationMatrix,
+    elimination: &Option<Elimination>,
+    gblocks: &[ContactBlocks],
+    hblocks: Option<&[ContactBlocks]>,
+    v_free: &DVector<f64>,
+    shift: &[f64],
+) -> ContactProblem {
+    let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
+        gblocks.iter().map(|b| w.solve_contact(b)).collect();
+    let corrections: Vec<Option<DMatrix<f64>>> = match elimination {
+        Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
+        None => Vec::new(),
+    };
+    let n = gblocks.len();
+    // Delassus blocks W_cd = Σ_b H_cb y_db over the bodies b both contacts move: the
+    // responses indexed by body, so that only the nonzero blocks are formed
+    let mut responses: Vec<Vec<(usize, &Matrix6x3<f64>)>> = vec![Vec::new(); v_free.len() / 6];
+    for (d, yd) in ys.iter().enumerate() {
+        for (b, y) in yd {
+            responses[*b].push((d, y));
+        }
+    }
+    let mut dmat = DMatrix::zeros(3 * n, 3 * n);
+    let mut q = DVector::zeros(3 * n);
+    for (c, bc) in hblocks.unwrap_or(gblocks).iter().enumerate() {
+        let mut qc = Vector3::zeros();
+        for (b, g) in bc.iter() {
+            qc += g * v_free.fixed_rows::<6>(6 * b);
+        }
+        qc.x += shift[c];
+        q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
+        for (b, g) in bc.iter() {
+            for &(d, y) in &responses[*b] {
+                let mut blk = dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d);
+                blk += g * y;
+            }
+        }
+    }
+    ContactProblem {
+        ys,
+        corrections,
+        w: dmat,
+        q,
     }
 }
 

@@ -324,17 +324,19 @@ impl Simulation {
             .map(|(&i, _)| i)
             .collect();
         let mut vs = self.velocity_of(&kept);
-        let mut it = vs.impulses.into_iter();
-        vs.impulses = dropped
+        let (mut impulses, mut speeds) = (vs.impulses.into_iter(), vs.normal_speeds.into_iter());
+        let v = vs.v.as_slice();
+        (vs.impulses, vs.normal_speeds) = active
             .iter()
-            .map(|&d| {
-                if d {
-                    Vector3::zeros()
-                } else {
-                    it.next().expect("one per kept")
-                }
+            .zip(&dropped)
+            .map(|(&i, &d)| match d {
+                true => (Vector3::zeros(), self.points[i].local_velocity(v).x),
+                false => (
+                    impulses.next().expect("one per kept"),
+                    speeds.next().expect("one per kept"),
+                ),
             })
-            .collect();
+            .unzip();
         vs
     }
 
@@ -380,19 +382,9 @@ impl Simulation {
         // which is work done on the mechanism and an error of first order in h: a 10 mm
         // clearance pendulum in its plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with
         // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
-        // h = 20 µs (2e-4 with them). Under a projection this holds only between bodies held
-        // in a plane: in space, a journal jammed between its flanges or tilted across its
-        // rings lets these rows pump an equal and opposite pair of impulses without bound
-        // (1e8 N·s, then a non-finite state, on the same pendulum swinging in space at
-        // h = 0.05).
+        // h = 20 µs (2e-4 with them).
         let persistent: Vec<usize> = (0..active.len())
-            .filter(|&k| {
-                let c = &points[k];
-                closed(active[k])
-                    && !c.gap_law
-                    && (!projected
-                        || self.model.held_in_plane(c.body1) && self.model.held_in_plane(c.body2))
-            })
+            .filter(|&k| closed(active[k]) && !points[k].gap_law)
             .collect();
         let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
             let candidates: Vec<Candidate> =

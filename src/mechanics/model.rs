@@ -2,7 +2,7 @@
 //! simulation; the evolving state lives in [`State`], so that one model can be run many
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
-use super::body::{BodyRef, Motion, Pose, RigidBody, Twist};
+use super::body::{Motion, Pose, RigidBody, Twist};
 use super::contact::clearance::ClearanceJoint;
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
@@ -139,14 +139,6 @@ impl Model {
                 }
             }
         }
-    }
-
-    /// Whether a body (None: the ground) cannot leave a plane: fixed, or held to one.
-    pub fn held_in_plane(&self, body: BodyRef) -> bool {
-        body.is_none_or(|i| {
-            let b = &self.bodies[i];
-            b.motion == Motion::Fixed || b.planar.is_some()
-        })
     }
 
     /// Total mechanical energy: kinetic, gravity and the potentials of the force elements.

@@ -30,6 +30,11 @@ pub struct NsgsOptions {
     pub tolerance: f64,
     /// Maximum number of sweeps over the contacts.
     pub max_sweeps: usize,
+    /// Whether a problem that the sweeps leave unsolved goes on to the last resort: the
+    /// global Newton method again, then proximal-point iterations (default true). These
+    /// solve the jammed problems that stall Gauss–Seidel, but may take seconds to fail; a
+    /// caller with another problem to fall back on turns them off.
+    pub last_resort: bool,
 }
 
 impl Default for NsgsOptions {
@@ -37,6 +42,7 @@ impl Default for NsgsOptions {
         NsgsOptions {
             tolerance: 1e-10,
             max_sweeps: 1000,
+            last_resort: true,
         }
     }
 }
@@ -164,6 +170,13 @@ fn local_velocity(
 /// iterate, then proximal-point iterations; report the failure if those fail too, with
 /// the best iterate found.
 fn last_resort(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions, sweeps: usize) -> SolverStatus {
+    if !opts.last_resort {
+        return SolverStatus {
+            converged: false,
+            iterations: sweeps,
+            residual: natural_map_error(p, r),
+        };
+    }
     let mut trial = r.clone();
     let found = global_newton(p, &mut trial, opts.tolerance, 100).or_else(|| {
         trial.copy_from(r);

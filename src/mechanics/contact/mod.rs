@@ -319,6 +319,26 @@ impl ContactPoint {
     pub fn normal(&self) -> Vector3<f64> {
         self.geometry.normal
     }
+
+    /// The same point with its tangents carried over from `frame`, the frame of this contact
+    /// at nearby poses (rows n, t1, t2): t1 is that frame's t1 less its part along this
+    /// normal, t2 = n × t1. A tangent basis chosen from the normal alone jumps where the
+    /// normal crosses the basis' seam (for `tangent_basis`, n_z = 0, which is every normal
+    /// of a mechanism in the x–y plane), and an impulse taken along one basis and a
+    /// velocity measured along the other turn friction around.
+    pub fn with_tangents_of(mut self, frame: &Matrix3<f64>) -> ContactPoint {
+        let n = self.geometry.normal;
+        let t1 = frame.row(1).transpose();
+        let t1 = (t1 - n * n.dot(&t1)).normalize();
+        let t2 = n.cross(&t1);
+        let carried = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
+        // each Jacobian block is [F, F L] for its frame F: turn it by F' Fᵀ
+        let turn = carried * self.frame.transpose();
+        self.g1 = turn * self.g1;
+        self.g2 = turn * self.g2;
+        self.frame = carried;
+        self
+    }
 }
 
 #[cfg(test)]
@@ -326,6 +346,48 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use nalgebra::{UnitQuaternion, Vector6};
+
+    /// Tangents carried over from a frame whose normal lies on the other side of
+    /// `tangent_basis`'s seam (n_z = ±1e-12, a mechanism in the x–y plane): the basis built
+    /// from the normal alone turns by 180° about it, the carried one stays within the
+    /// normal's own turn of the start's; and the Jacobian is the one built on those tangents.
+    #[test]
+    fn tangents_carried_across_the_basis_seam_stay_put() {
+        let body = BodyFrame::new(Pose {
+            x: Vector3::new(0.1, -0.2, 0.3),
+            p: UnitQuaternion::from_euler_angles(0.3, -0.2, 0.7),
+        });
+        let point = |normal: Vector3<f64>, tangents| {
+            let g = ContactGeometry {
+                gap: 0.0,
+                normal,
+                point1: Vector3::new(0.15, -0.1, 0.3),
+                point2: Vector3::new(0.15, -0.1, 0.3),
+            };
+            ContactPoint::new(g, Some(0), &body, None, &body, tangents, 0.3, 0.0)
+        };
+        let start = point(Vector3::new(1.0, 0.0, -1e-12).normalize(), None);
+        let turn = 0.01f64;
+        let n = Vector3::new(turn.cos(), turn.sin(), 1e-12).normalize();
+        let own = point(n, None);
+        assert!(
+            (own.frame.row(1) - start.frame.row(1)).norm() > 1.9,
+            "no seam crossed"
+        );
+        let carried = own.with_tangents_of(&start.frame);
+        assert!((carried.frame.row(1) - start.frame.row(1)).norm() < 1.5 * turn);
+        assert!((carried.frame.row(2) - start.frame.row(2)).norm() < 1.5 * turn);
+        assert_relative_eq!(
+            carried.frame * carried.frame.transpose(),
+            Matrix3::identity(),
+            epsilon = 1e-14
+        );
+        let t1 = carried.frame.row(1).transpose();
+        let t2 = carried.frame.row(2).transpose();
+        let built = point(n, Some((t1, t2)));
+        assert_relative_eq!(carried.g1, built.g1, epsilon = 1e-14);
+        assert_relative_eq!(carried.frame, built.frame, epsilon = 1e-15);
+    }
 
     /// The Jacobian maps twists to the relative velocity of the contact point on body 1
     /// with respect to the material point of body 2 at the same place, by finite
