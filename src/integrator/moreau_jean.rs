@@ -261,7 +261,8 @@ pub fn velocity_step(
     // they differ): the start-of-step ones, but at the midpoint and the end for the
     // persistent contacts whose normal turns
     let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
-    let mut gblocks: Vec<_> = active.iter().map(|c| contact_blocks(c, mask)).collect();
+    let start_blocks = || -> Vec<_> { active.iter().map(|c| contact_blocks(c, mask)).collect() };
+    let mut gblocks = start_blocks();
     let mut hblocks: Option<Vec<_>> = None;
     let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
     // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
@@ -418,7 +419,7 @@ pub fn velocity_step(
                 Some(before) if !status.converged => {
                     r = before;
                     hblocks = None;
-                    gblocks = active.iter().map(|c| contact_blocks(c, mask)).collect();
+                    gblocks = start_blocks();
                 }
                 _ => break problem,
             }

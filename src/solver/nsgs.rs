@@ -167,23 +167,22 @@ fn local_velocity(
 }
 
 /// NSGS and the global Newton both failed: try the global Newton again from the sweeps'
-/// iterate, then proximal-point iterations; report the failure if those fail too, with
-/// the best iterate found.
+/// iterate, then proximal-point iterations (unless `opts.last_resort` is off); report the
+/// failure if those fail too, with the best iterate found.
 fn last_resort(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions, sweeps: usize) -> SolverStatus {
-    if !opts.last_resort {
-        return SolverStatus {
-            converged: false,
-            iterations: sweeps,
-            residual: natural_map_error(p, r),
-        };
-    }
-    let mut trial = r.clone();
-    let found = global_newton(p, &mut trial, opts.tolerance, 100).or_else(|| {
-        trial.copy_from(r);
-        proximal_newton(p, &mut trial, opts.tolerance, PROXIMAL_OUTER)
-    });
-    // the proximal iterations leave their best iterate, never worse than the sweeps' one
-    *r = trial;
+    let found = opts
+        .last_resort
+        .then(|| {
+            let mut trial = r.clone();
+            let found = global_newton(p, &mut trial, opts.tolerance, 100).or_else(|| {
+                trial.copy_from(r);
+                proximal_newton(p, &mut trial, opts.tolerance, PROXIMAL_OUTER)
+            });
+            // the proximal iterations leave their best iterate, never worse than the sweeps' one
+            *r = trial;
+            found
+        })
+        .flatten();
     SolverStatus {
         converged: found.is_some(),
         iterations: sweeps + found.unwrap_or(0),
