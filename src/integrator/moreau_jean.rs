@@ -65,16 +65,27 @@ pub fn advance_poses(
     h: f64,
     theta: f64,
 ) -> Vec<Pose> {
-    poses
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let a = v0.fixed_rows::<6>(6 * i);
-            let b = v1.fixed_rows::<6>(6 * i);
-            let delta: Twist = (a * (1.0 - theta) + b * theta) * h;
-            p.advanced(&delta)
-        })
-        .collect()
+    let mut out = Vec::with_capacity(poses.len());
+    advance_poses_into(&mut out, poses, v0, v1, h, theta);
+    out
+}
+
+/// `advance_poses` into `out`, whose allocation the Newton iterations reuse.
+fn advance_poses_into(
+    out: &mut Vec<Pose>,
+    poses: &[Pose],
+    v0: &DVector<f64>,
+    v1: &DVector<f64>,
+    h: f64,
+    theta: f64,
+) {
+    out.clear();
+    out.extend(poses.iter().enumerate().map(|(i, p)| {
+        let a = v0.fixed_rows::<6>(6 * i);
+        let b = v1.fixed_rows::<6>(6 * i);
+        let delta: Twist = (a * (1.0 - theta) + b * theta) * h;
+        p.advanced(&delta)
+    }));
 }
 
 /// A persistent contact whose normal turns by more than this (rad) over its step acts on
@@ -300,6 +311,8 @@ pub fn velocity_step(
     let mut f1 = DVector::zeros(ndof);
     let mut resid = DVector::zeros(ndof);
     let mut dv = DVector::zeros(ndof);
+    let mut v_free = DVector::zeros(ndof);
+    let mut poses1 = Vec::with_capacity(poses.len());
     let mut status = SolverStatus {
         converged: true,
         ..Default::default()
@@ -307,7 +320,7 @@ pub fn velocity_step(
     let mut converged = false;
     let mut iterations = 0;
     for it in 0..=params.newton_max_iterations {
-        let poses1 = advance_poses(poses, v0, &v, h, theta);
+        advance_poses_into(&mut poses1, poses, v0, &v, h, theta);
         model.wrench(t + h, &poses1, &v, &mut f1);
         if alpha > 0.0 {
             model.mass_times(&v, &mut resid);
@@ -321,11 +334,13 @@ pub fn velocity_step(
         resid.axpy(-h * (1.0 - theta), &f0, 1.0);
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
-            let mut reactions = resid.clone();
-            if let Some(e) = &elimination {
-                reactions -= e.gmat.tr_mul(&q_joint);
-            }
-            let res = newton_residual(&reactions, &gblocks, &r, mask);
+            let res = match &elimination {
+                Some(e) => {
+                    let reactions = &resid - e.gmat.tr_mul(&q_joint);
+                    newton_residual(&reactions, &gblocks, &r, mask)
+                }
+                None => newton_residual(&resid, &gblocks, &r, mask),
+            };
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
             {
                 converged = true;
@@ -337,7 +352,10 @@ pub fn velocity_step(
         }
         iterations += 1;
         let w = IterationMatrix::assemble(model, mask, t + h, &poses1, &v, h, theta, alpha);
-        let v_free = &v - w.solve(&resid);
+        // v_free = v − W⁻¹ R, in the buffer kept across the iterations
+        v_free.copy_from(&resid);
+        w.solve_mut(&mut v_free);
+        v_free.zip_apply(&v, |f, vi| *f = vi - *f);
         let mid = (persistent.is_some() || joints.is_some())
             .then(|| advance_poses(poses, v0, &v, 0.5 * h, 0.5));
         if let (Some(c), Some(mid), 0) = (persistent, &mid, iterations - 1) {
@@ -369,16 +387,17 @@ pub fn velocity_step(
             let (hmat, rates) = bilateral_matrix(&rows_at(t + h, &poses1), mask, ndof);
             Elimination::new(&w, gmat, hmat, rates)
         });
-        let (v_free_c, q_free) = match &elimination {
+        let (constrained, q_free) = match &elimination {
             Some(e) => {
                 let q_free = e.schur.solve(&(&e.rates - &e.hmat * &v_free));
-                (&v_free + &e.z * &q_free, q_free)
+                (Some(&v_free + &e.z * &q_free), q_free)
             }
-            None => (v_free, DVector::zeros(0)),
+            None => (None, DVector::zeros(0)),
         };
+        let v_free_c = constrained.as_ref().unwrap_or(&v_free);
         if active.is_empty() {
             q_joint = q_free;
-            v = v_free_c;
+            v.copy_from(v_free_c);
             continue;
         }
         // Mid-step and end rows make the Delassus matrix nonsymmetric. Where the solver does
@@ -392,7 +411,7 @@ pub fn velocity_step(
                 &elimination,
                 &gblocks,
                 hblocks.as_deref(),
-                &v_free_c,
+                v_free_c,
                 &shift,
             );
             let nonsymmetric = hblocks.is_some();
@@ -424,7 +443,7 @@ pub fn velocity_step(
                 _ => break problem,
             }
         };
-        v = v_free_c;
+        v.copy_from(v_free_c);
         for (c, yc) in ys.iter().enumerate() {
             let p = r.fixed_rows::<3>(3 * c);
             for (b, y) in yc {
