@@ -128,6 +128,17 @@ impl std::ops::Deref for ContactBlocks {
     }
 }
 
+impl ContactBlocks {
+    /// The local velocity (u_N, u_T1, u_T2) these rows measure for the twists `v`.
+    fn velocity(&self, v: &DVector<f64>) -> Vector3<f64> {
+        let mut u = Vector3::zeros();
+        for (b, g) in self.iter() {
+            u += g * v.fixed_rows::<6>(6 * b);
+        }
+        u
+    }
+}
+
 fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
     let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
     let mut out = ContactBlocks {
@@ -284,10 +295,7 @@ pub fn velocity_step(
     // ring and 181 N·s on a guard where the step needed 0.01, and 3.3 J of 4.9 gone
     // in 1 s from a pendulum on a 1 µm clearance at μ = 0.1 and h = 1e-3, which loses
     // 0.025–0.026 J at any step from 1e-5 to 1e-3 with these start rows.
-    let guarded = |c: &ContactPoint| {
-        let pair = |p: &ContactPoint| (p.body1.min(p.body2), p.body1.max(p.body2));
-        active.iter().any(|g| g.gap_law && pair(g) == pair(c))
-    };
+    let guarded = |c: &ContactPoint| active.iter().any(|g| g.gap_law && g.bodies() == c.bodies());
     // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
     // keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
     // never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
@@ -474,11 +482,7 @@ pub fn velocity_step(
         .as_ref()
         .unwrap_or(&gblocks)
         .iter()
-        .map(|bc| {
-            bc.iter()
-                .map(|(b, g)| g.row(0).dot(&v.fixed_rows::<6>(6 * b).transpose()))
-                .sum()
-        })
+        .map(|bc| bc.velocity(&v).x)
         .collect();
     VelocityStep {
         v,
@@ -553,10 +557,7 @@ fn contact_problem(
     let mut dmat = DMatrix::zeros(3 * n, 3 * n);
     let mut q = DVector::zeros(3 * n);
     for (c, bc) in hblocks.unwrap_or(gblocks).iter().enumerate() {
-        let mut qc = Vector3::zeros();
-        for (b, g) in bc.iter() {
-            qc += g * v_free.fixed_rows::<6>(6 * b);
-        }
+        let mut qc = bc.velocity(v_free);
         qc.x += shift[c];
         q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
         for (b, g) in bc.iter() {

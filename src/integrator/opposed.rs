@@ -29,11 +29,9 @@ impl Simulation {
         let v0 = self.state.v.as_slice();
         // the normal oriented from the body of higher index to the lower, and that pair
         let oriented = |c: &ContactPoint| {
+            let bodies = c.bodies();
             let n = c.normal();
-            match (c.body1, c.body2) {
-                (a, b) if a <= b => ((a, b), n),
-                (a, b) => ((b, a), -n),
-            }
+            (bodies, if bodies.0 == c.body1 { n } else { -n })
         };
         let facing: Vec<Option<_>> = active
             .iter()

@@ -299,6 +299,12 @@ impl ContactPoint {
         }
     }
 
+    /// Its two bodies, the lower index first (the ground, None, lowest): the same pair
+    /// whichever side the contact is seen from.
+    pub fn bodies(&self) -> (BodyRef, BodyRef) {
+        (self.body1.min(self.body2), self.body1.max(self.body2))
+    }
+
     /// Local relative velocity (u_N, u_T1, u_T2) for the body twists `v` (6 per body).
     pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
         let mut u = Vector3::zeros();
