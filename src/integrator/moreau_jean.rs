@@ -35,6 +35,10 @@ pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
 pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
     pub persistent: Vec<usize>,
+    /// Those of them whose normal can turn over a step, the ones evaluated at mid-step and
+    /// at the end: a contact on a plane that cannot turn keeps its start rows, which are
+    /// its rows at any poses.
+    pub turning: Vec<usize>,
     /// The active contacts at positions `which` evaluated at the given poses, in order.
     pub at: ContactsAt<'a>,
 }
@@ -376,12 +380,13 @@ pub fn velocity_step(
         v_free.copy_from(&resid);
         w.solve_mut(&mut v_free);
         v_free.zip_apply(&v, |f, vi| *f = vi - *f);
-        let mid = (persistent.is_some() || joints.is_some())
+        let turning = persistent.filter(|c| !c.turning.is_empty());
+        let mid = (turning.is_some() || joints.is_some())
             .then(|| advance_poses(poses, v0, &v, 0.5 * h, 0.5));
-        if let (Some(c), Some(mid), 0) = (persistent, &mid, iterations - 1) {
-            let at_mid = (c.at)(mid, &c.persistent);
-            let at_end = (c.at)(&poses1, &c.persistent);
-            for (k, &a) in c.persistent.iter().enumerate() {
+        if let (Some(c), Some(mid), 0) = (turning, &mid, iterations - 1) {
+            let at_mid = (c.at)(mid, &c.turning);
+            let at_end = (c.at)(&poses1, &c.turning);
+            for (k, &a) in c.turning.iter().enumerate() {
                 // a normal that does not turn over the step keeps the start rows (and the
                 // Delassus matrix symmetric, which the solver's sweeps need to converge
                 // fast), and so do one that swings (`SWUNG`) and one thrown with a guard

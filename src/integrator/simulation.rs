@@ -386,6 +386,16 @@ impl Simulation {
         let persistent: Vec<usize> = (0..active.len())
             .filter(|&k| closed(active[k]) && !points[k].gap_law)
             .collect();
+        let turning = persistent
+            .iter()
+            .copied()
+            .filter(|&k| match self.candidates[active[k]] {
+                Candidate::Pair { pair, .. } => {
+                    !self.model.contacts[pair].normal_is_fixed(&self.mask)
+                }
+                _ => true,
+            })
+            .collect();
         let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
             let candidates: Vec<Candidate> =
                 which.iter().map(|&k| self.candidates[active[k]]).collect();
@@ -398,6 +408,7 @@ impl Simulation {
         };
         let contacts = ActiveAt {
             persistent,
+            turning,
             at: &at,
         };
         // a guard's index names a point relative to the current closest point, so its last

@@ -109,6 +109,16 @@ fn lever_row(dir: &Vector3<f64>, lever: &Matrix3<f64>) -> RowVector6<f64> {
 }
 
 impl ContactPair {
+    /// Whether the contact normal is the same at any poses: that of a plane which cannot
+    /// turn, on the ground or on a body whose rotations are held (`mask`, the model's
+    /// integrated degrees of freedom). A plane always goes second in a pair.
+    pub fn normal_is_fixed(&self, mask: &[bool]) -> bool {
+        matches!(self.shape2, Primitive::Plane { .. })
+            && self
+                .body2
+                .is_none_or(|b| mask[6 * b + 3..6 * b + 6].iter().all(|&m| !m))
+    }
+
     /// Builds a pair, ordering the shapes so that body 2 carries the plane, the profile,
     /// the mesh, the box or convex part met by a sphere or point, or the second of two
     /// like shapes. Returns an error message for an unsupported combination.
@@ -352,6 +362,66 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use nalgebra::{UnitQuaternion, Vector6};
+
+    /// A plane that cannot turn (on the ground, or on a body whose rotations are held)
+    /// gives the same normal at any poses, which is what lets a closed contact on it skip
+    /// its mid-step and end rows; a plane on a turning body and a box's faces do not.
+    #[test]
+    fn only_a_plane_that_cannot_turn_has_a_fixed_normal() {
+        let ball = Primitive::Sphere {
+            center: Vector3::zeros(),
+            radius: 0.1,
+        };
+        let plane = Primitive::Plane {
+            point: Vector3::zeros(),
+            normal: Vector3::new(0.0, 0.3, 1.0),
+        };
+        let cube = Primitive::Box {
+            center: Vector3::zeros(),
+            rotation: UnitQuaternion::identity(),
+            half_extents: Vector3::new(0.5, 0.5, 0.5),
+        };
+        let pair = |body2: BodyRef, shape2: Primitive| {
+            ContactPair::new("c", Some(0), ball.clone(), body2, shape2, 0.3, 0.0).unwrap()
+        };
+        // body 0 free; body 1 free (`free`) or translating only (`sliding`)
+        let free = [true; 12];
+        let mut sliding = [true; 12];
+        sliding[9..12].fill(false);
+        assert!(pair(None, plane.clone()).normal_is_fixed(&free));
+        assert!(pair(Some(1), plane.clone()).normal_is_fixed(&sliding));
+        assert!(!pair(Some(1), plane.clone()).normal_is_fixed(&free));
+        assert!(!pair(None, cube.clone()).normal_is_fixed(&free));
+
+        // the claim itself: the ball moved and turned, the sliding body moved
+        let turned = |x: f64| Pose {
+            x: Vector3::new(x, 0.2 * x, 0.3),
+            p: UnitQuaternion::from_euler_angles(x, -0.5 * x, 0.2),
+        };
+        let a = [turned(0.1), Pose::identity()];
+        let mut b = [turned(0.7), Pose::identity()];
+        b[1].x = Vector3::new(0.4, -0.3, 0.2);
+        for body2 in [None, Some(1)] {
+            let c = pair(body2, plane.clone());
+            assert_eq!(
+                c.evaluate(0, &a).frame.row(0),
+                c.evaluate(0, &b).frame.row(0)
+            );
+        }
+        // a box's normal turns with the ball's place over an edge
+        let c = pair(None, cube);
+        let edge = |x: f64| {
+            [Pose {
+                x: Vector3::new(0.55, x, 0.55),
+                ..Pose::identity()
+            }]
+        };
+        assert!(
+            (c.evaluate(0, &edge(0.0)).frame.row(0) - c.evaluate(0, &edge(0.6)).frame.row(0))
+                .norm()
+                > 0.1
+        );
+    }
 
     /// Tangents carried over from a frame whose normal lies on the other side of
     /// `tangent_basis`'s seam (n_z = ±1e-12, a mechanism in the x–y plane): the basis built
