@@ -36,8 +36,8 @@ pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
     pub persistent: Vec<usize>,
     /// Those of them whose normal can turn over a step, the ones evaluated at mid-step and
-    /// at the end: a contact on a plane that cannot turn keeps its start rows, which are
-    /// its rows at any poses.
+    /// at the end: a contact on a plane that cannot turn keeps its start rows, as any
+    /// contact whose normal does not turn does, without being evaluated to find that out.
     pub turning: Vec<usize>,
     /// The active contacts at positions `which` evaluated at the given poses, in order.
     pub at: ContactsAt<'a>,
