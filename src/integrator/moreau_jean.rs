@@ -287,6 +287,7 @@ pub fn velocity_step(
     // they differ): the start-of-step ones, but at the midpoint and the end for the
     // persistent contacts whose normal turns
     let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
+    let turning = persistent.filter(|c| !c.turning.is_empty());
     let start_blocks = || -> Vec<_> { active.iter().map(|c| contact_blocks(c, mask)).collect() };
     let mut gblocks = start_blocks();
     let mut hblocks: Option<Vec<_>> = None;
@@ -380,7 +381,6 @@ pub fn velocity_step(
         v_free.copy_from(&resid);
         w.solve_mut(&mut v_free);
         v_free.zip_apply(&v, |f, vi| *f = vi - *f);
-        let turning = persistent.filter(|c| !c.turning.is_empty());
         let mid = (turning.is_some() || joints.is_some())
             .then(|| advance_poses(poses, v0, &v, 0.5 * h, 0.5));
         if let (Some(c), Some(mid), 0) = (turning, &mid, iterations - 1) {
