@@ -158,11 +158,12 @@ fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vector3<
     let contact = |w: &mut Vector6<f64>, c: usize| {
         let cp = &sim.contact_points()[c];
         let p = sim.impulses()[c];
+        let (g1, g2) = cp.blocks();
         if cp.body1 == Some(target) {
-            add_impulse(w, &cp.g1, &p);
+            add_impulse(w, &g1, &p);
         }
         if cp.body2 == Some(target) {
-            add_impulse(w, &cp.g2, &p);
+            add_impulse(w, &g2, &p);
         }
     };
     match through {

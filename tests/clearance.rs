@@ -606,7 +606,7 @@ fn ring_contact_lateral_curvature_matches_the_exact_gap() {
                 (read.abs() - s.abs()).abs() < 1e-12 * e.norm(),
                 "{read} vs {s}"
             );
-            let linear = cp.gap() + (cp.g2.row(0) * twist)[0];
+            let linear = cp.gap() + (cp.normal_rows().1 * twist)[0];
             let predicted = linear - 0.5 * lateral.kappa * read * read;
             let exact = c - (e.norm_squared() + s * s).sqrt();
             let moved = joint.evaluate(k, &at(e + across * s)).gap();

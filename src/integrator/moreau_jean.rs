@@ -149,7 +149,8 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
         blocks: [(0, Matrix3x6::zeros()); 2],
         len: 0,
     };
-    for (body, g) in [(c.body1, c.g1), (c.body2, c.g2)] {
+    let (g1, g2) = c.blocks();
+    for (body, g) in [(c.body1, g1), (c.body2, g2)] {
         if let Some(b) = body.filter(|&b| moving(b)) {
             out.blocks[out.len] = (b, g);
             out.len += 1;

@@ -405,12 +405,8 @@ pub fn project(
 
 /// Normal rows (gap and its gradient) of contact points, as bilateral rows.
 pub fn contact_normal_row(cp: &ContactPoint) -> BilateralRow {
-    contact_row(
-        cp,
-        cp.g1.row(0).into_owned(),
-        cp.g2.row(0).into_owned(),
-        cp.gap(),
-    )
+    let (g1, g2) = cp.normal_rows();
+    contact_row(cp, g1, g2, cp.gap())
 }
 
 /// A length row on a contact's two bodies, with the gradient blocks `g1`, `g2`.

@@ -1,7 +1,9 @@
 //! Unilateral frictional contacts: a pair of primitives on two bodies expands into a fixed
 //! list of candidate points. Each candidate gives its gap, local frame (n, t1, t2) and the
 //! 3×6 Jacobian blocks G₁, G₂ mapping the body twists to the local relative velocity
-//! (the lever arm of both bodies is taken at the point on body 1).
+//! (the lever arm of both bodies is taken at the point on body 1). The blocks are built
+//! when asked for: a mechanism evaluates all its candidates at every step, and most of
+//! them are never in a velocity problem.
 
 pub mod clearance;
 pub mod convex;
@@ -40,8 +42,7 @@ pub struct ContactPoint {
     pub frame: Matrix3<f64>,
     pub body1: BodyRef,
     pub body2: BodyRef,
-    pub g1: Matrix3x6<f64>,
-    pub g2: Matrix3x6<f64>,
+    jacobian: Jacobian,
     pub mu: f64,
     pub e: f64,
     /// Whether the law is on the linearised end-of-step gap, g + h u_N,θ ≥ 0, instead of on
@@ -52,6 +53,22 @@ pub struct ContactPoint {
     /// How the gap bends across its normal, where that matters to the projection (a bore
     /// ring against its journal); `None` for a gap that is flat on the scale of a correction.
     pub lateral: Option<Lateral>,
+}
+
+/// What a contact point's Jacobian blocks are made from.
+#[derive(Clone, Copy, Debug)]
+enum Jacobian {
+    /// G_b = ±[F, F skew(x_b − p) R_b] for the frame's rows F, from each body's rotation
+    /// R_b and the arm x_b − p from the contact point to its centre.
+    Lever {
+        rotation: [Matrix3<f64>; 2],
+        arm: [Vector3<f64>; 2],
+    },
+    /// Normal rows given outright, no tangential rows (a joint stop's).
+    Normal {
+        g1: RowVector6<f64>,
+        g2: RowVector6<f64>,
+    },
 }
 
 /// The second-order part of a gap that curves sharply across its normal. A bore ring
@@ -96,7 +113,12 @@ impl BodyFrame {
 /// point at `point` due to the rotation. Built once per body and contact, it serves the
 /// three rows of the contact frame.
 fn lever(body: &BodyFrame, point: &Vector3<f64>) -> Matrix3<f64> {
-    skew(&(body.pose.x - point)) * body.rotation
+    lever_of(&(body.pose.x - point), &body.rotation)
+}
+
+/// skew(arm) R for the arm x − point of a body with rotation R.
+fn lever_of(arm: &Vector3<f64>, rotation: &Matrix3<f64>) -> Matrix3<f64> {
+    skew(arm) * rotation
 }
 
 /// [dirᵀ, dirᵀ lever]: the gradient row of `point_row` for a lever built by `lever`.
@@ -271,8 +293,9 @@ impl ContactPair {
 }
 
 impl ContactPoint {
-    /// Builds the local frame and the Jacobian blocks of a contact from its geometry; the
-    /// tangent basis is Frisvad's completion of n unless `tangents` gives one.
+    /// Builds the local frame of a contact from its geometry and keeps what its Jacobian
+    /// blocks are made from; the tangent basis is Frisvad's completion of n unless
+    /// `tangents` gives one.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         geometry: ContactGeometry,
@@ -287,25 +310,80 @@ impl ContactPoint {
         let n = geometry.normal;
         let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
         let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
-        // [F, F lever] for the frame's rows F, negated for body 2
-        let jac = |body: &BodyFrame| -> Matrix3x6<f64> {
-            let mut g = Matrix3x6::zeros();
-            g.fixed_columns_mut::<3>(0).copy_from(&frame);
-            g.fixed_columns_mut::<3>(3)
-                .copy_from(&(frame * lever(body, &geometry.point1)));
-            g
-        };
+        let arm = |body: &BodyFrame| body.pose.x - geometry.point1;
         ContactPoint {
             geometry,
             frame,
             body1,
             body2,
-            g1: jac(p1),
-            g2: -jac(p2),
+            jacobian: Jacobian::Lever {
+                rotation: [p1.rotation, p2.rotation],
+                arm: [arm(p1), arm(p2)],
+            },
             mu,
             e,
             gap_law: false,
             lateral: None,
+        }
+    }
+
+    /// A frictionless point whose normal rows are given (`g1`, `g2` for bodies 1 and 2);
+    /// its frame is the identity and its tangential rows are zero.
+    pub fn with_normal_rows(
+        geometry: ContactGeometry,
+        body1: BodyRef,
+        body2: BodyRef,
+        g1: RowVector6<f64>,
+        g2: RowVector6<f64>,
+        e: f64,
+    ) -> ContactPoint {
+        ContactPoint {
+            geometry,
+            frame: Matrix3::identity(),
+            body1,
+            body2,
+            jacobian: Jacobian::Normal { g1, g2 },
+            mu: 0.0,
+            e,
+            gap_law: false,
+            lateral: None,
+        }
+    }
+
+    /// The Jacobian blocks G₁, G₂ (3×6, rows n, t1, t2): the local relative velocity is
+    /// G₁ v₁ + G₂ v₂ for the twists v₁, v₂ of bodies 1 and 2.
+    pub fn blocks(&self) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+        match &self.jacobian {
+            Jacobian::Lever { rotation, arm } => {
+                let block = |k: usize| {
+                    let mut g = Matrix3x6::zeros();
+                    g.fixed_columns_mut::<3>(0).copy_from(&self.frame);
+                    g.fixed_columns_mut::<3>(3)
+                        .copy_from(&(self.frame * lever_of(&arm[k], &rotation[k])));
+                    g
+                };
+                (block(0), -block(1))
+            }
+            Jacobian::Normal { g1, g2 } => {
+                let block = |row: &RowVector6<f64>| {
+                    let mut g = Matrix3x6::zeros();
+                    g.row_mut(0).copy_from(row);
+                    g
+                };
+                (block(g1), block(g2))
+            }
+        }
+    }
+
+    /// The normal rows of the blocks (the gap's gradient), without the tangential ones.
+    pub fn normal_rows(&self) -> (RowVector6<f64>, RowVector6<f64>) {
+        match &self.jacobian {
+            Jacobian::Lever { rotation, arm } => {
+                let n = self.geometry.normal;
+                let row = |k: usize| lever_row(&n, &lever_of(&arm[k], &rotation[k]));
+                (row(0), -row(1))
+            }
+            Jacobian::Normal { g1, g2 } => (*g1, *g2),
         }
     }
 
@@ -315,16 +393,39 @@ impl ContactPoint {
         (self.body1.min(self.body2), self.body1.max(self.body2))
     }
 
-    /// Local relative velocity (u_N, u_T1, u_T2) for the body twists `v` (6 per body).
+    /// Local relative velocity (u_N, u_T1, u_T2) for the body twists `v` (6 per body): the
+    /// frame's rows applied to the velocity of the material point of body 1 at the contact
+    /// point less that of body 2, v_b + (x_b − p) × R_b ω_b for body-frame ω_b.
     pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
-        let mut u = Vector3::zeros();
-        if let Some(i) = self.body1 {
-            u += self.g1 * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]);
+        let twist = |i: usize| {
+            (
+                Vector3::from_column_slice(&v[6 * i..6 * i + 3]),
+                Vector3::from_column_slice(&v[6 * i + 3..6 * i + 6]),
+            )
+        };
+        match &self.jacobian {
+            Jacobian::Lever { rotation, arm } => {
+                let mut w = Vector3::zeros();
+                for (k, (body, sign)) in [(self.body1, 1.0), (self.body2, -1.0)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    if let Some(i) = body {
+                        let (lin, ang) = twist(i);
+                        w += (lin + arm[k].cross(&(rotation[k] * ang))) * sign;
+                    }
+                }
+                self.frame * w
+            }
+            Jacobian::Normal { g1, g2 } => {
+                let row = |g: &RowVector6<f64>, i: usize| {
+                    (g * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]))[0]
+                };
+                let un =
+                    self.body1.map_or(0.0, |i| row(g1, i)) + self.body2.map_or(0.0, |i| row(g2, i));
+                Vector3::new(un, 0.0, 0.0)
+            }
         }
-        if let Some(i) = self.body2 {
-            u += self.g2 * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]);
-        }
-        u
     }
 
     pub fn gap(&self) -> f64 {
@@ -348,10 +449,6 @@ impl ContactPoint {
         let t1 = (t1 - n * n.dot(&t1)).normalize();
         let t2 = n.cross(&t1);
         let carried = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
-        // each Jacobian block is [F, F L] for its frame F: turn it by F' Fᵀ
-        let turn = carried * self.frame.transpose();
-        self.g1 = turn * self.g1;
-        self.g2 = turn * self.g2;
         self.frame = carried;
         self
     }
@@ -461,7 +558,7 @@ mod tests {
         let t1 = carried.frame.row(1).transpose();
         let t2 = carried.frame.row(2).transpose();
         let built = point(n, Some((t1, t2)));
-        assert_relative_eq!(carried.g1, built.g1, epsilon = 1e-14);
+        assert_relative_eq!(carried.blocks().0, built.blocks().0, epsilon = 1e-14);
         assert_relative_eq!(carried.frame, built.frame, epsilon = 1e-15);
     }
 
@@ -513,6 +610,15 @@ mod tests {
             .collect();
         let rel = (moved[0] - moved[1]) / eps;
         assert_relative_eq!(u, cp.frame * rel, epsilon = 1e-6);
+        // the blocks, built when asked, measure the same velocity, and their first rows are
+        // the normal rows
+        let (g1, g2) = cp.blocks();
+        let by_blocks =
+            g1 * Vector6::from_column_slice(&v[..6]) + g2 * Vector6::from_column_slice(&v[6..]);
+        assert_relative_eq!(by_blocks, u, epsilon = 1e-14);
+        let (n1, n2) = cp.normal_rows();
+        assert_relative_eq!(n1, g1.row(0).into_owned(), epsilon = 1e-15);
+        assert_relative_eq!(n2, g2.row(0).into_owned(), epsilon = 1e-15);
         assert_relative_eq!(
             cp.gap(),
             (poses[0].point(&Vector3::new(0.01, 0.02, 0.0)) - poses[1].x).norm() - 0.3,

@@ -14,7 +14,6 @@ use crate::math::{any_orthogonal, skew};
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::Pose;
 use crate::mechanics::contact::{ContactGeometry, ContactPoint};
-use nalgebra::{Matrix3, Matrix3x6};
 use nalgebra::{RowVector6, Vector3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -231,32 +230,23 @@ impl Joint {
         } else {
             (1.0, row.value - lim.lower)
         };
-        let block = |g: Option<(usize, RowVector6<f64>)>| {
-            let mut m = Matrix3x6::zeros();
-            if let Some((_, r)) = g {
-                m.row_mut(0).copy_from(&(r * sign));
-            }
-            m
-        };
+        let normal_row =
+            |g: Option<(usize, RowVector6<f64>)>| g.map_or(RowVector6::zeros(), |(_, r)| r * sign);
         let pa = pose_of(self.a, poses);
         let pb = pose_of(self.b, poses);
-        ContactPoint {
-            geometry: ContactGeometry {
+        ContactPoint::with_normal_rows(
+            ContactGeometry {
                 gap,
                 normal: pa.dir(&self.axis_a) * sign,
                 point1: pb.point(&self.anchor_b),
                 point2: pa.point(&self.anchor_a),
             },
-            frame: Matrix3::identity(),
-            body1: self.b,
-            body2: self.a,
-            g1: block(row.b),
-            g2: block(row.a),
-            mu: 0.0,
-            e: lim.e,
-            gap_law: false,
-            lateral: None,
-        }
+            self.b,
+            self.a,
+            normal_row(row.b),
+            normal_row(row.a),
+            lim.e,
+        )
     }
 
     /// Joint coordinate: the angle of b about the axis (revolute) or the displacement of
@@ -494,6 +484,64 @@ mod tests {
                     "{kind:?} row {k}: analytic {analytic} vs fd {fd}"
                 );
             }
+        }
+    }
+
+    /// A stop is a contact point whose normal speed is the rate at which its gap closes:
+    /// d(q − lower)/dt at the lower stop, d(upper − q)/dt at the upper one, by finite
+    /// differences of the gap along a twist; it has no tangential rows.
+    #[test]
+    fn stop_speed_is_the_rate_of_its_gap() {
+        let assembled = vec![Pose::identity(), Pose::identity()];
+        let mut j = Joint::new(
+            "j",
+            JointKind::Revolute,
+            Some(0),
+            Some(1),
+            Vector3::new(0.1, 0.2, 0.0),
+            Vector3::new(-0.1, 0.0, 0.05),
+            Vector3::new(0.0, 0.0, 1.0),
+            Vector3::new(0.0, 0.0, 1.0),
+            &assembled,
+            None,
+        );
+        j.limits = Some(JointLimits {
+            lower: -0.5,
+            upper: 0.8,
+            e: 0.3,
+        });
+        let poses = [
+            Pose {
+                x: Vector3::new(0.0, 0.1, 0.0),
+                p: UnitQuaternion::from_euler_angles(0.02, -0.01, 0.1),
+            },
+            Pose {
+                x: Vector3::new(0.2, 0.1, 0.0),
+                p: UnitQuaternion::from_euler_angles(-0.01, 0.03, 0.4),
+            },
+        ];
+        let tw = [
+            Vector6::new(0.3, -0.1, 0.2, 0.5, -0.7, 0.2),
+            Vector6::new(-0.2, 0.4, 0.1, -0.3, 0.6, 0.9),
+        ];
+        let v: Vec<f64> = tw.iter().flat_map(|t| t.iter().copied()).collect();
+        let eps = 1e-7;
+        let at =
+            |s: f64| -> Vec<Pose> { (0..2).map(|i| poses[i].advanced(&(tw[i] * s))).collect() };
+        for upper in [false, true] {
+            let cp = j.limit_point(upper, &poses);
+            let fd = (j.limit_point(upper, &at(eps)).gap() - j.limit_point(upper, &at(-eps)).gap())
+                / (2.0 * eps);
+            let u = cp.local_velocity(&v);
+            assert!((u.x - fd).abs() < 1e-7, "upper {upper}: {} vs {fd}", u.x);
+            assert_eq!((u.y, u.z), (0.0, 0.0));
+            let (g1, g2) = cp.blocks();
+            let by_blocks = g1 * tw[1] + g2 * tw[0];
+            assert!((by_blocks - u).norm() < 1e-14);
+            assert_eq!(
+                cp.normal_rows(),
+                (g1.row(0).into_owned(), g2.row(0).into_owned())
+            );
         }
     }
 
