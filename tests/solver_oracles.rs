@@ -253,3 +253,69 @@ fn proximal_newton_solves_coincident_contacts_to_the_closed_form() {
         assert!(total[2].abs() < 1e-8, "μ = {mu}: {total:?}");
     }
 }
+
+/// The global Newton method on a block-sparse problem, as a mechanism gives: contacts along
+/// a chain of bodies (contact k between bodies k and k + 1, W = H M⁻¹ Hᵀ with random
+/// Jacobian blocks), numbered in a shuffled order so that the method reorders them
+/// (`BlockPattern::minimum_degree`). The solution meets the complementarity conditions and
+/// is the one found on the same problem numbered along the chain, where no reordering
+/// happens.
+#[test]
+fn global_newton_solves_a_shuffled_chain_in_its_own_order() {
+    use mc_study::solver::newton::global_newton;
+    use mc_study::solver::ordering::BlockPattern;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let n = 12;
+    let (m, dofs) = (3 * n, 6 * (n + 1));
+    // along the chain: H has contact k's blocks on bodies k and k + 1
+    let mut h = DMatrix::zeros(m, dofs);
+    for k in 0..n {
+        for body in [k, k + 1] {
+            for i in 0..3 {
+                for j in 0..6 {
+                    h[(3 * k + i, 6 * body + j)] = rng.random_range(-1.0..1.0);
+                }
+            }
+        }
+    }
+    let inverse_mass = DMatrix::from_fn(dofs, dofs, |i, j| {
+        if i == j {
+            rng.random_range(0.5..2.0)
+        } else {
+            0.0
+        }
+    });
+    let chain_w = &h * inverse_mass * h.transpose() + DMatrix::identity(m, m) * 1e-3;
+    let chain_q = DVector::from_fn(m, |_, _| rng.random_range(-1.0..1.0));
+    let chain_mu: Vec<f64> = (0..n).map(|_| rng.random_range(0.1..0.8)).collect();
+    assert_eq!(
+        BlockPattern::of(&chain_w).minimum_degree(),
+        (0..n).collect::<Vec<_>>()
+    );
+    // the same contacts numbered in a shuffled order: contact k is chain contact shuffle[k]
+    let shuffle = [5, 0, 9, 2, 11, 7, 3, 10, 1, 6, 8, 4];
+    let index = |i: usize| 3 * shuffle[i / 3] + i % 3;
+    let w = DMatrix::from_fn(m, m, |i, j| chain_w[(index(i), index(j))]);
+    let q = DVector::from_fn(m, |i, _| chain_q[index(i)]);
+    let mu: Vec<f64> = shuffle.iter().map(|&k| chain_mu[k]).collect();
+    assert_ne!(
+        BlockPattern::of(&w).minimum_degree(),
+        (0..n).collect::<Vec<_>>()
+    );
+    let solve = |w: &DMatrix<f64>, q: &DVector<f64>, mu: &[f64]| {
+        let mut r = DVector::zeros(m);
+        let p = Fc3d { w, q, mu };
+        global_newton(&p, &mut r, 1e-12, 100).expect("converges");
+        check_solution(w, q, mu, &r, 1e-9);
+        r
+    };
+    let (shuffled, chain) = (solve(&w, &q, &mu), solve(&chain_w, &chain_q, &chain_mu));
+    for i in 0..m {
+        assert!(
+            (shuffled[i] - chain[index(i)]).abs() <= 1e-9 * chain.amax(),
+            "entry {i}: {} vs {}",
+            shuffled[i],
+            chain[index(i)]
+        );
+    }
+}

@@ -81,6 +81,13 @@ impl Lu {
         Lu { n, lu, swaps }
     }
 
+    /// The nonzero entries of the factors L and U (L's unit diagonal not counted): what a
+    /// solve touches, and a measure of the fill-in.
+    #[cfg(test)]
+    pub fn nonzeros(&self) -> usize {
+        self.lu.iter().filter(|&&x| x != 0.0).count()
+    }
+
     /// The solution x of A x = b; `None` if U has a zero on its diagonal.
     pub fn solve(&self, b: &DVector<f64>) -> Option<DVector<f64>> {
         let mut x = b.clone();

@@ -3,13 +3,15 @@
 //! `fc3d` states the 3D frictional contact problem FC3D(W, q, μ) and its natural-map
 //! error; `nsgs` solves it by nonsmooth Gauss–Seidel with a one-contact Alart–Curnier
 //! Newton method; `lu` factorises the block-sparse matrices of its global Newton
-//! method and of `mlcp`'s equality solver.
+//! method and of `mlcp`'s equality solver, and `ordering` orders the contacts so that the
+//! factorisation stays sparse.
 
 pub mod fc3d;
 pub mod lu;
 pub mod mlcp;
 pub mod newton;
 pub mod nsgs;
+pub mod ordering;
 
 pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};
 pub use lu::Lu;

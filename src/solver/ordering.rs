@@ -1,0 +1,196 @@
+//! The block pattern of a contact problem and a fill-reducing order of its contacts. W's
+//! 3×3 blocks are nonzero only between contacts that share a body (or bodies a force
+//! element couples), and so are those of the global Newton method's Jacobian: products
+//! over the pattern skip the zero blocks, and factorising in a good order touches far
+//! fewer entries. On the circuit breaker a third of the blocks are nonzero, and in the
+//! contacts' index order the LU fills in almost completely.
+
+use nalgebra::{DMatrix, DVector, Vector3};
+
+/// Which 3×3 blocks of a contact problem's W are nonzero, symmetrised (a and b coupled when
+/// W_ab or W_ba is nonzero); the diagonal blocks always count.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockPattern {
+    n: usize,
+    coupled: Vec<bool>,
+    /// The blocks of row a, ascending, are `columns[start[a]..start[a + 1]]`.
+    start: Vec<usize>,
+    columns: Vec<usize>,
+}
+
+impl BlockPattern {
+    /// The pattern of W (3n × 3n), read column by column (contiguous in its storage).
+    pub fn of(w: &DMatrix<f64>) -> Self {
+        let n = w.nrows() / 3;
+        let m = 3 * n;
+        let data = w.as_slice();
+        let mut coupled = vec![false; n * n];
+        for b in 0..n {
+            for a in 0..n {
+                let nonzero = a == b
+                    || (0..3).any(|c| {
+                        let at = (3 * b + c) * m + 3 * a;
+                        data[at] != 0.0 || data[at + 1] != 0.0 || data[at + 2] != 0.0
+                    });
+                if nonzero {
+                    coupled[a * n + b] = true;
+                    coupled[b * n + a] = true;
+                }
+            }
+        }
+        Self::from_coupled(n, coupled)
+    }
+
+    fn from_coupled(n: usize, coupled: Vec<bool>) -> Self {
+        let mut start = Vec::with_capacity(n + 1);
+        let mut columns = Vec::with_capacity(coupled.iter().filter(|&&c| c).count());
+        for a in 0..n {
+            start.push(columns.len());
+            columns.extend((0..n).filter(|&b| coupled[a * n + b]));
+        }
+        start.push(columns.len());
+        BlockPattern {
+            n,
+            coupled,
+            start,
+            columns,
+        }
+    }
+
+    /// The blocks b of row a that may be nonzero, ascending.
+    pub fn row(&self, a: usize) -> &[usize] {
+        &self.columns[self.start[a]..self.start[a + 1]]
+    }
+
+    /// u = W r + q over the blocks of the pattern only.
+    pub fn velocity(&self, w: &DMatrix<f64>, r: &DVector<f64>, q: &DVector<f64>) -> DVector<f64> {
+        let mut u = q.clone();
+        for a in 0..self.n {
+            let mut ua = Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+            for &b in self.row(a) {
+                ua += w.fixed_view::<3, 3>(3 * a, 3 * b)
+                    * Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
+            }
+            u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
+        }
+        u
+    }
+
+    /// The pattern of the problem whose contact k is contact `order[k]` of this one.
+    pub fn permuted(&self, order: &[usize]) -> Self {
+        let n = self.n;
+        let coupled = (0..n * n)
+            .map(|kl| self.coupled[order[kl / n] * n + order[kl % n]])
+            .collect();
+        Self::from_coupled(n, coupled)
+    }
+
+    /// A fill-reducing elimination order of the contacts, by minimum degree: at each step
+    /// the contact with the fewest neighbours left (the lowest index on a tie) goes next,
+    /// and its neighbours become coupled, as its elimination couples them.
+    pub fn minimum_degree(&self) -> Vec<usize> {
+        let n = self.n;
+        let mut coupled = self.coupled.clone();
+        let mut degree: Vec<usize> = (0..n).map(|a| self.row(a).len() - 1).collect();
+        let mut left = vec![true; n];
+        let mut order = Vec::with_capacity(n);
+        let mut neighbours = Vec::with_capacity(n);
+        for _ in 0..n {
+            let next = (0..n)
+                .filter(|&a| left[a])
+                .min_by_key(|&a| (degree[a], a))
+                .expect("a contact left");
+            order.push(next);
+            left[next] = false;
+            neighbours.clear();
+            neighbours.extend((0..n).filter(|&b| left[b] && coupled[next * n + b]));
+            for &b in &neighbours {
+                degree[b] -= 1;
+            }
+            for (k, &a) in neighbours.iter().enumerate() {
+                for &b in &neighbours[k + 1..] {
+                    if !coupled[a * n + b] {
+                        coupled[a * n + b] = true;
+                        coupled[b * n + a] = true;
+                        degree[a] += 1;
+                        degree[b] += 1;
+                    }
+                }
+            }
+        }
+        order
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::Lu;
+    use nalgebra::DVector;
+
+    /// W of an arrow: contact 0 coupled to every other, the others to nobody else.
+    fn arrow(n: usize) -> DMatrix<f64> {
+        DMatrix::from_fn(3 * n, 3 * n, |i, j| {
+            let (a, b) = (i / 3, j / 3);
+            if i == j {
+                10.0 + i as f64
+            } else if a == b || a == 0 || b == 0 {
+                1.0 / (1.0 + (i + 2 * j) as f64)
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// In index order, eliminating the arrow's hub first would couple every contact;
+    /// minimum degree keeps it until one neighbour is left (a tie with that neighbour,
+    /// which the lower index wins).
+    #[test]
+    fn an_arrow_is_eliminated_hub_last() {
+        let order = BlockPattern::of(&arrow(6)).minimum_degree();
+        assert_eq!(order, vec![1, 2, 3, 4, 0, 5]);
+    }
+
+    /// A chain (each contact coupled to its two neighbours) keeps its natural order: the
+    /// two ends have degree 1, and eliminating an end creates no fill.
+    #[test]
+    fn a_chain_is_eliminated_from_one_end() {
+        let n = 5;
+        let w = DMatrix::from_fn(3 * n, 3 * n, |i, j| {
+            if (i / 3).abs_diff(j / 3) <= 1 {
+                1.0 + (i * j) as f64
+            } else {
+                0.0
+            }
+        });
+        assert_eq!(BlockPattern::of(&w).minimum_degree(), vec![0, 1, 2, 3, 4]);
+    }
+
+    /// The permuted system has the same solution, and the order makes the LU's factors no
+    /// denser than the matrix (in index order they fill in completely).
+    #[test]
+    fn permuted_arrow_solves_the_same_without_fill() {
+        let n = 6;
+        let w = arrow(n);
+        let b = DVector::from_fn(3 * n, |i, _| (i as f64 * 0.7).sin());
+        let x = Lu::new(w.clone()).solve(&b).unwrap();
+        let order = BlockPattern::of(&w).minimum_degree();
+        let index = |k: usize| 3 * order[k / 3] + k % 3;
+        let wp = DMatrix::from_fn(3 * n, 3 * n, |i, j| w[(index(i), index(j))]);
+        let bp = DVector::from_fn(3 * n, |i, _| b[index(i)]);
+        let xp = Lu::new(wp.clone()).solve(&bp).unwrap();
+        for k in 0..3 * n {
+            assert!((xp[k] - x[index(k)]).abs() < 1e-12);
+        }
+        // the pattern of the permuted matrix is the permuted pattern, and products over it
+        // are W r + q
+        assert_eq!(BlockPattern::of(&wp), BlockPattern::of(&w).permuted(&order));
+        let q = DVector::from_fn(3 * n, |i, _| (i as f64 * 1.3).cos());
+        let u = BlockPattern::of(&w).velocity(&w, &b, &q);
+        assert!((u - (&w * &b + &q)).amax() < 1e-14);
+        let filled = |m: DMatrix<f64>| Lu::new(m).nonzeros();
+        let pattern = w.iter().filter(|&&x| x != 0.0).count();
+        assert_eq!(filled(wp), pattern);
+        assert_eq!(filled(w), 9 * n * n);
+    }
+}
