@@ -115,6 +115,7 @@ INTERRUPTED = """
 import sys, time, numpy as np, mc_study as mc
 what, out = sys.argv[1], sys.argv[2]
 try:
+    print("ready", flush=True)
     if what == "run":
         mc.Study.load({study!r}, samples=100000).run(out=out, threads=2)
     else:
@@ -137,8 +138,18 @@ def test_ctrl_c_stops_cleanly_and_keeps_the_finished_samples(tmp_path, what):
         scene=str(STUDIES / "bouncing-ball" / "scene.yaml"),
     )
     out = tmp_path / "out"
-    child = subprocess.Popen([sys.executable, "-c", script, what, str(out)], stdout=subprocess.PIPE, text=True)
-    time.sleep(3.0)
+    # A runner that starts the tests in the background (a shell without job control, some
+    # CI services) leaves SIGINT ignored, the child inherits that and Python then installs
+    # no KeyboardInterrupt handler: give the child the default disposition.
+    child = subprocess.Popen(
+        [sys.executable, "-c", script, what, str(out)],
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    # interrupt the work, not the imports: on a loaded machine they alone can take seconds
+    assert child.stdout.readline() == "ready\n"
+    time.sleep(2.0)
     sent = time.monotonic()
     child.send_signal(signal.SIGINT)
     stdout, _ = child.communicate(timeout=60)
