@@ -228,6 +228,7 @@ fn frictionless_case_equals_the_lcp_solution() {
 #[test]
 fn proximal_newton_solves_coincident_contacts_to_the_closed_form() {
     use mc_study::solver::newton::proximal_newton;
+    use mc_study::solver::ordering::BlockPattern;
     let m = 2.0;
     let mut w = DMatrix::zeros(6, 6);
     for i in 0..3 {
@@ -244,7 +245,7 @@ fn proximal_newton_solves_coincident_contacts_to_the_closed_form() {
             mu: &mus,
         };
         let mut r = DVector::from_vec(vec![5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        proximal_newton(&p, &mut r, 1e-10, 50).expect("converges");
+        proximal_newton(&p, &BlockPattern::of(&w), &mut r, 1e-10, 50).expect("converges");
         assert!(natural_map_error(&p, &r) <= 1e-10);
         check_solution(&w, &q, &mus, &r, 1e-8);
         let total = [r[0] + r[3], r[1] + r[4], r[2] + r[5]];
@@ -305,7 +306,7 @@ fn global_newton_solves_a_shuffled_chain_in_its_own_order() {
     let solve = |w: &DMatrix<f64>, q: &DVector<f64>, mu: &[f64]| {
         let mut r = DVector::zeros(m);
         let p = Fc3d { w, q, mu };
-        global_newton(&p, &mut r, 1e-12, 100).expect("converges");
+        global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 100).expect("converges");
         check_solution(w, q, mu, &r, 1e-9);
         r
     };

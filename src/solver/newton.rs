@@ -79,19 +79,20 @@ fn phi_and_jacobian(
 }
 
 /// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
-/// natural-map error), leaving the best iterate in `r` either way. The contacts are taken
-/// in a fill-reducing order (`BlockPattern::minimum_degree`), which keeps the LU of the
-/// Jacobian sparse: on the circuit breaker it halves the factorisation's work.
+/// natural-map error), leaving the best iterate in `r` either way. `pattern` is W's block
+/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are taken in a fill-reducing order
+/// (`BlockPattern::minimum_degree`), which keeps the LU of the Jacobian sparse: on the
+/// circuit breaker it halves the factorisation's work.
 pub fn global_newton(
     p: &Fc3d,
+    pattern: &BlockPattern,
     r: &mut DVector<f64>,
     tolerance: f64,
     max_iterations: usize,
 ) -> Option<usize> {
-    let pattern = BlockPattern::of(p.w);
     let order = pattern.minimum_degree();
     if order.iter().enumerate().all(|(k, &a)| k == a) {
-        return newton_in_order(p, &pattern, r, tolerance, max_iterations);
+        return newton_in_order(p, pattern, r, tolerance, max_iterations);
     }
     // entry k of the reordered problem is entry `index(k)` of the original
     let index = |k: usize| 3 * order[k / 3] + k % 3;
@@ -186,9 +187,11 @@ fn newton_in_order(
 /// subproblem and grows tenfold when the inner Newton fails (from η = mean diag W it starts
 /// again at 1e-4 from the best iterate). A fixed η either failed its subproblems or crept
 /// (0.1 % a step at 0.1 mean diag W). Returns the inner Newton iterations used if the
-/// *original* problem reached `tolerance`; `r` holds the best iterate either way.
+/// *original* problem reached `tolerance`; `r` holds the best iterate either way. `pattern`
+/// is W's, which the shift keeps.
 pub fn proximal_newton(
     p: &Fc3d,
+    pattern: &BlockPattern,
     r: &mut DVector<f64>,
     tolerance: f64,
     max_outer: usize,
@@ -208,7 +211,7 @@ pub fn proximal_newton(
             mu: p.mu,
         };
         let mut trial = current.clone();
-        let Some(it) = global_newton(&sub, &mut trial, 0.01 * tolerance, 50) else {
+        let Some(it) = global_newton(&sub, pattern, &mut trial, 0.01 * tolerance, 50) else {
             // even a large shift fails from here: start again from the best iterate
             if rel >= 1.0 {
                 rel = 1e-4;

@@ -8,6 +8,7 @@ use super::fc3d::{
     SolverStatus,
 };
 use super::newton::{global_newton, proximal_newton};
+use super::ordering::BlockPattern;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
@@ -96,13 +97,14 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
         if residual < 0.9 * best {
             (best, best_sweep) = (residual, sweep);
         } else if sweep - best_sweep > STAGNATION_SWEEPS {
-            return last_resort(p, r, opts, sweep);
+            return last_resort(p, &coupled.pattern(n), r, opts, sweep);
         }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
         // Newton method from the current iterate, falling back to more sweeps if it fails.
         if sweep == GLOBAL_NEWTON_AFTER || sweep == 5 * GLOBAL_NEWTON_AFTER {
             let mut trial = r.clone();
-            if let Some(it) = global_newton(p, &mut trial, opts.tolerance, 100) {
+            if let Some(it) = global_newton(p, &coupled.pattern(n), &mut trial, opts.tolerance, 100)
+            {
                 *r = trial;
                 return SolverStatus {
                     converged: true,
@@ -112,7 +114,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             }
         }
     }
-    last_resort(p, r, opts, opts.max_sweeps)
+    last_resort(p, &coupled.pattern(n), r, opts, opts.max_sweeps)
 }
 
 /// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
@@ -138,6 +140,14 @@ impl Coupling {
         }
         start.push(blocks.len());
         Coupling { blocks, start }
+    }
+
+    /// W's block pattern, as the global Newton method takes it.
+    fn pattern(&self, n: usize) -> BlockPattern {
+        BlockPattern::of_pairs(
+            n,
+            (0..n).flat_map(|a| self.of_contact(a).map(move |(b, _)| (a, b))),
+        )
     }
 
     fn of_contact(&self, a: usize) -> impl Iterator<Item = (usize, &Matrix3<f64>)> {
@@ -169,14 +179,20 @@ fn local_velocity(
 /// NSGS and the global Newton both failed: try the global Newton again from the sweeps'
 /// iterate, then proximal-point iterations (unless `opts.last_resort` is off); report the
 /// failure if those fail too, with the best iterate found.
-fn last_resort(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions, sweeps: usize) -> SolverStatus {
+fn last_resort(
+    p: &Fc3d,
+    pattern: &BlockPattern,
+    r: &mut DVector<f64>,
+    opts: &NsgsOptions,
+    sweeps: usize,
+) -> SolverStatus {
     let found = opts
         .last_resort
         .then(|| {
             let mut trial = r.clone();
-            let found = global_newton(p, &mut trial, opts.tolerance, 100).or_else(|| {
+            let found = global_newton(p, pattern, &mut trial, opts.tolerance, 100).or_else(|| {
                 trial.copy_from(r);
-                proximal_newton(p, &mut trial, opts.tolerance, PROXIMAL_OUTER)
+                proximal_newton(p, pattern, &mut trial, opts.tolerance, PROXIMAL_OUTER)
             });
             // the proximal iterations leave their best iterate, never worse than the sweeps' one
             *r = trial;

@@ -24,19 +24,26 @@ impl BlockPattern {
         let n = w.nrows() / 3;
         let m = 3 * n;
         let data = w.as_slice();
+        let nonzero = |a: usize, b: usize| {
+            (0..3).any(|c| {
+                let at = (3 * b + c) * m + 3 * a;
+                data[at] != 0.0 || data[at + 1] != 0.0 || data[at + 2] != 0.0
+            })
+        };
+        let pairs = (0..n).flat_map(|b| (0..n).map(move |a| (a, b)));
+        Self::of_pairs(n, pairs.filter(|&(a, b)| a != b && nonzero(a, b)))
+    }
+
+    /// The pattern of n contacts whose off-diagonal blocks (a, b) are `pairs`, for a caller
+    /// that has already found them (NSGS, which keeps W's nonzero blocks).
+    pub fn of_pairs(n: usize, pairs: impl IntoIterator<Item = (usize, usize)>) -> Self {
         let mut coupled = vec![false; n * n];
-        for b in 0..n {
-            for a in 0..n {
-                let nonzero = a == b
-                    || (0..3).any(|c| {
-                        let at = (3 * b + c) * m + 3 * a;
-                        data[at] != 0.0 || data[at + 1] != 0.0 || data[at + 2] != 0.0
-                    });
-                if nonzero {
-                    coupled[a * n + b] = true;
-                    coupled[b * n + a] = true;
-                }
-            }
+        for a in 0..n {
+            coupled[a * n + a] = true;
+        }
+        for (a, b) in pairs {
+            coupled[a * n + b] = true;
+            coupled[b * n + a] = true;
         }
         Self::from_coupled(n, coupled)
     }
@@ -185,6 +192,10 @@ mod tests {
         // the pattern of the permuted matrix is the permuted pattern, and products over it
         // are W r + q
         assert_eq!(BlockPattern::of(&wp), BlockPattern::of(&w).permuted(&order));
+        // and the pattern of the arrow's off-diagonal pairs (hub–spoke, either way round) is
+        // the pattern read from W
+        let spokes = (1..n).flat_map(|a| [(0, a), (a, 0)]);
+        assert_eq!(BlockPattern::of_pairs(n, spokes), BlockPattern::of(&w));
         let q = DVector::from_fn(3 * n, |i, _| (i as f64 * 1.3).cos());
         let u = BlockPattern::of(&w).velocity(&w, &b, &q);
         assert!((u - (&w * &b + &q)).amax() < 1e-14);
