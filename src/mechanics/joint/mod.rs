@@ -420,6 +420,22 @@ mod tests {
     use super::*;
     use nalgebra::{UnitQuaternion, Vector6};
 
+    /// A joint of `kind` between bodies 0 and 1, anchors off their centres, axis z.
+    fn test_joint(kind: JointKind, assembled: &[Pose], drive: Option<Drive>) -> Joint {
+        Joint::new(
+            "j",
+            kind,
+            Some(0),
+            Some(1),
+            Vector3::new(0.1, 0.2, 0.0),
+            Vector3::new(-0.1, 0.0, 0.05),
+            Vector3::new(0.0, 0.0, 1.0),
+            Vector3::new(0.0, 0.0, 1.0),
+            assembled,
+            drive,
+        )
+    }
+
     /// Every row's gradient is the derivative of its value along any twist (finite
     /// differences through the Lie-group update), at a configuration off the manifold.
     #[test]
@@ -447,15 +463,8 @@ mod tests {
                     p: poses[0].p,
                 },
             ];
-            let j = Joint::new(
-                "j",
+            let j = test_joint(
                 kind,
-                Some(0),
-                Some(1),
-                Vector3::new(0.1, 0.2, 0.0),
-                Vector3::new(-0.1, 0.0, 0.05),
-                Vector3::new(0.0, 0.0, 1.0),
-                Vector3::new(0.0, 0.0, 1.0),
                 &assembled,
                 Some(Drive::Position(ScalarProfile::Rate {
                     start: 0.0,
@@ -493,18 +502,7 @@ mod tests {
     #[test]
     fn stop_speed_is_the_rate_of_its_gap() {
         let assembled = vec![Pose::identity(), Pose::identity()];
-        let mut j = Joint::new(
-            "j",
-            JointKind::Revolute,
-            Some(0),
-            Some(1),
-            Vector3::new(0.1, 0.2, 0.0),
-            Vector3::new(-0.1, 0.0, 0.05),
-            Vector3::new(0.0, 0.0, 1.0),
-            Vector3::new(0.0, 0.0, 1.0),
-            &assembled,
-            None,
-        );
+        let mut j = test_joint(JointKind::Revolute, &assembled, None);
         j.limits = Some(JointLimits {
             lower: -0.5,
             upper: 0.8,
