@@ -39,26 +39,49 @@ impl EqualitySolver {
     /// matrix is singular.
     pub fn solve(&self, rhs: &DVector<f64>) -> DVector<f64> {
         let mut z = rhs.clone();
-        if !self.lu.solve_in_place(z.as_mut_slice()) {
-            return DVector::from_element(rhs.len(), f64::NAN);
+        let mut work = Vec::new();
+        self.solve_in_place(z.as_mut_slice(), &mut work);
+        z
+    }
+
+    /// Overwrites `b` with the solution of A z = b, with two steps of iterative refinement
+    /// in `work` (resized as needed, so that a caller solving many systems allocates once);
+    /// NaN if the regularised matrix is singular.
+    pub fn solve_in_place(&self, b: &mut [f64], work: &mut Vec<f64>) {
+        let n = b.len();
+        work.resize(3 * n, 0.0);
+        work[..n].copy_from_slice(b);
+        let (rhs, rest) = work.split_at_mut(n);
+        let (az, dz) = rest.split_at_mut(n);
+        if !self.lu.solve_in_place(b) {
+            b.fill(f64::NAN);
+            return;
         }
-        let (mut az, mut dz) = (DVector::zeros(rhs.len()), DVector::zeros(rhs.len()));
         for _ in 0..2 {
-            self.a.mul_to(&z, &mut az);
-            dz.copy_from(rhs);
-            dz -= &az;
-            if self.lu.solve_in_place(dz.as_mut_slice()) {
-                z += &dz;
+            // dz = rhs − A z, with A z summed column by column as nalgebra's product does
+            az.fill(0.0);
+            for (column, &zj) in self.a.as_slice().chunks_exact(n).zip(b.iter()) {
+                for (y, x) in az.iter_mut().zip(column) {
+                    *y += x * zj;
+                }
+            }
+            for ((d, r), y) in dz.iter_mut().zip(rhs.iter()).zip(az.iter()) {
+                *d = r - y;
+            }
+            if self.lu.solve_in_place(dz) {
+                for (z, d) in b.iter_mut().zip(dz.iter()) {
+                    *z += d;
+                }
             }
         }
-        z
     }
 
     /// Solves for several right-hand sides at once (columns).
     pub fn solve_matrix(&self, rhs: &DMatrix<f64>) -> DMatrix<f64> {
-        let mut out = DMatrix::zeros(rhs.nrows(), rhs.ncols());
-        for j in 0..rhs.ncols() {
-            out.set_column(j, &self.solve(&rhs.column(j).into_owned()));
+        let mut out = rhs.clone();
+        let mut work = Vec::new();
+        for mut column in out.column_iter_mut() {
+            self.solve_in_place(column.as_mut_slice(), &mut work);
         }
         out
     }
