@@ -11,8 +11,8 @@
 //! constraints of the same rows with the drives' rates and the `initial` rates:
 //! v ← v − M⁻¹Hᵀ (H M⁻¹ Hᵀ)⁻¹ (H v − b), the smallest change in kinetic energy.
 
-use super::moreau_jean::bilateral_matrix;
 use super::projection::{inverse_mass, project, ContactRows};
+use super::rows;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::joint::{BilateralRow, Drive, Joint, JointKind, RowUnit, ScalarProfile};
 use crate::mechanics::{Model, Motion, Pose};
@@ -239,7 +239,7 @@ pub fn assemble(
     let velocity_joints = holding(model, targets, &written, true);
     let (rows, names) = rows(&velocity_joints, &poses);
     if !rows.is_empty() {
-        let (h, b) = bilateral_matrix(&rows, &mask, ndof);
+        let (h, b) = rows::matrix(&rows, &mask, ndof);
         let mut mht = DMatrix::zeros(ndof, rows.len());
         for (k, row) in rows.iter().enumerate() {
             for (body, g) in row.a.iter().chain(row.b.iter()) {

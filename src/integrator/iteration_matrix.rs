@@ -13,7 +13,7 @@
 use crate::math::skew;
 use crate::mechanics::body::Twist;
 use crate::mechanics::{Model, Pose};
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix3x6, Matrix6, Matrix6x3, StorageMut, Vector};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix6, SMatrix, StorageMut, Vector};
 use std::collections::BTreeMap;
 
 /// Relative finite-difference step for force-element Jacobians.
@@ -382,13 +382,25 @@ impl<'m> IterationMatrix<'m> {
         }
     }
 
-    /// W⁻¹ Gᵀ for one contact with Jacobian blocks on bodies (b1, b2), at most two: the
-    /// nonzero 6×3 blocks per body.
-    pub fn solve_contact(
+    /// W⁻¹ Gᵀ for R rows (a contact's three, a joint's one) with Jacobian blocks on at most
+    /// two bodies: the nonzero 6×R blocks per body.
+    pub fn solve_blocks<const R: usize>(
         &self,
-        blocks: &[(usize, Matrix3x6<f64>)],
-    ) -> Vec<(usize, Matrix6x3<f64>)> {
-        let masked = |b: usize, g: &Matrix3x6<f64>| {
+        blocks: &[(usize, SMatrix<f64, R, 6>)],
+    ) -> Vec<(usize, SMatrix<f64, 6, R>)> {
+        let mut out = Vec::with_capacity(blocks.len());
+        self.solve_blocks_into(blocks, &mut out);
+        out
+    }
+
+    /// `solve_blocks` into `out` (cleared first), whose allocation a caller solving for
+    /// many rows reuses.
+    pub fn solve_blocks_into<const R: usize>(
+        &self,
+        blocks: &[(usize, SMatrix<f64, R, 6>)],
+        out: &mut Vec<(usize, SMatrix<f64, 6, R>)>,
+    ) {
+        let masked = |b: usize, g: &SMatrix<f64, R, 6>| {
             let mut gt = g.transpose();
             for k in 0..6 {
                 if !self.mask[6 * b + k] {
@@ -397,8 +409,8 @@ impl<'m> IterationMatrix<'m> {
             }
             gt
         };
-        debug_assert!(blocks.len() <= 2, "a contact touches at most two bodies");
-        let mut out: Vec<(usize, Matrix6x3<f64>)> = Vec::with_capacity(blocks.len());
+        debug_assert!(blocks.len() <= 2, "rows touch at most two bodies");
+        out.clear();
         // the groups already solved for
         let mut done = [usize::MAX; 2];
         for (k, &(b, _)) in blocks.iter().enumerate() {
@@ -409,7 +421,7 @@ impl<'m> IterationMatrix<'m> {
             done[k] = gi;
             match &self.groups[gi] {
                 Group::Single { inverse, .. } => {
-                    let mut gt = Matrix6x3::zeros();
+                    let mut gt = SMatrix::<f64, 6, R>::zeros();
                     for (bb, gb) in blocks.iter().filter(|(bb, _)| *bb == b) {
                         gt += masked(*bb, gb);
                     }
@@ -417,7 +429,7 @@ impl<'m> IterationMatrix<'m> {
                 }
                 Group::Coupled { bodies, inverse } => {
                     // only the columns of W⁻¹ of the contact's bodies enter
-                    let mut terms = [(0, Matrix6x3::zeros()); 2];
+                    let mut terms = [(0, SMatrix::<f64, 6, R>::zeros()); 2];
                     let mut count = 0;
                     for (bb, gb) in blocks {
                         if let Some(gk) = bodies.iter().position(|x| x == bb) {
@@ -427,7 +439,7 @@ impl<'m> IterationMatrix<'m> {
                     }
                     for (gj, &bb) in bodies.iter().enumerate() {
                         if self.mask[6 * bb..6 * bb + 6].iter().any(|&m| m) {
-                            let mut y = Matrix6x3::zeros();
+                            let mut y = SMatrix::<f64, 6, R>::zeros();
                             for (gk, g) in &terms[..count] {
                                 y += inverse.fixed_view::<6, 6>(6 * gj, 6 * gk) * g;
                             }
@@ -437,7 +449,6 @@ impl<'m> IterationMatrix<'m> {
                 }
             }
         }
-        out
     }
 }
 

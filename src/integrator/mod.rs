@@ -3,6 +3,7 @@
 
 mod activation;
 pub mod assembly;
+mod elimination;
 mod impact;
 pub mod iteration_matrix;
 pub mod moreau_jean;
@@ -10,6 +11,7 @@ mod opposed;
 pub mod params;
 mod parts;
 pub mod projection;
+mod rows;
 pub mod schedule;
 pub mod simulation;
 

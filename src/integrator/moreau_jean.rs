@@ -7,12 +7,13 @@
 //! with e = 1 keeps the kinetic energy exactly); one that was already closed is treated
 //! as the joints are (`ActiveAt`).
 
+use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
-use crate::solver::{solve_fc3d, EqualitySolver, Fc3d, NsgsOptions, SolverStatus};
+use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
 /// The joints' bilateral rows evaluated at a time and poses.
@@ -159,78 +160,6 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
     out
 }
 
-/// The joints' rows eliminated from the step (Schur complement). The impulses Q act along
-/// the rows at the step's midpoint, G = H(q_{k+½}), and the velocity meets the rows at its
-/// end, H = H(q_{k+1}): H v_{k+1} = b(t_{k+1}). So v = v_free + Z Q with Z = W⁻¹Gᵀ and
-/// S = H Z. The midpoint direction keeps the θ = 1/2 scheme second order on constrained
-/// motion (start-of-step rows, as in Siconos, are first order); the end-of-step condition
-/// leaves no free mode: imposing the midpoint rows on the mean velocity, G (v_k + v_{k+1})/2
-/// = b, leaves v_{k+1} = 2b − v_k free to alternate step after step, which any impact
-/// excites and nothing damps. Z is nonzero only on the bodies W couples to jointed ones, so
-/// a contact away from the joints keeps its plain response.
-struct Elimination {
-    /// G, the rows the impulses act along.
-    gmat: DMatrix<f64>,
-    /// H and b, the rows the end-of-step velocity meets.
-    hmat: DMatrix<f64>,
-    rates: DVector<f64>,
-    z: DMatrix<f64>,
-    schur: EqualitySolver,
-    /// Bodies on which H has nonzero columns, and on which Z has nonzero rows.
-    h_bodies: Vec<usize>,
-    z_bodies: Vec<usize>,
-}
-
-impl Elimination {
-    fn new(
-        w: &IterationMatrix,
-        gmat: DMatrix<f64>,
-        hmat: DMatrix<f64>,
-        rates: DVector<f64>,
-    ) -> Self {
-        let z = solve_columns(w, gmat.transpose());
-        let bodies = hmat.ncols() / 6;
-        let h_bodies = (0..bodies)
-            .filter(|&b| hmat.columns(6 * b, 6).iter().any(|&x| x != 0.0))
-            .collect();
-        let z_bodies = (0..bodies)
-            .filter(|&b| z.rows(6 * b, 6).iter().any(|&x| x != 0.0))
-            .collect();
-        Elimination {
-            schur: EqualitySolver::new(&hmat * &z),
-            gmat,
-            hmat,
-            rates,
-            z,
-            h_bodies,
-            z_bodies,
-        }
-    }
-
-    /// Turns a contact's response y = W⁻¹Gᵀ into the constrained one, y − Z S⁻¹ H y, and
-    /// returns S⁻¹ H y (what its impulse takes from the joints' ones); None when H y = 0.
-    fn constrain(&self, y: &mut Vec<(usize, Matrix6x3<f64>)>) -> Option<DMatrix<f64>> {
-        if !y.iter().any(|(b, _)| self.h_bodies.contains(b)) {
-            return None;
-        }
-        let mut hy = DMatrix::zeros(self.hmat.nrows(), 3);
-        for (b, yb) in y.iter() {
-            if self.h_bodies.contains(b) {
-                hy += self.hmat.columns(6 * b, 6) * yb;
-            }
-        }
-        let corr = self.schur.solve_matrix(&hy);
-        for &b in &self.z_bodies {
-            let blk: Matrix6x3<f64> = self.z.fixed_rows::<6>(6 * b) * corr.fixed_columns::<3>(0);
-            match y.iter_mut().find(|(bb, _)| *bb == b) {
-                Some((_, yb)) => *yb -= blk,
-                None => y.push((b, -blk)),
-            }
-        }
-        Some(corr)
-    }
-}
-
 /// Where a velocity step starts: the model and its integrated degrees of freedom
 /// (`mask`, `model.dof_mask()`), the step's parameters, the settling damping in force, and
 /// the state (t, poses, v0).
@@ -366,7 +295,7 @@ pub fn velocity_step(
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
             let res = match &elimination {
                 Some(e) => {
-                    let reactions = &*resid - e.gmat.tr_mul(&q_joint);
+                    let reactions = &*resid - e.reactions(&q_joint);
                     newton_residual(&reactions, &gblocks, &r, mask)
                 }
                 None => newton_residual(&*resid, &gblocks, &r, mask),
@@ -413,14 +342,14 @@ pub fn velocity_step(
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         elimination = joints.map(|rows_at| {
             let mid = mid.as_ref().expect("midpoint poses with joints");
-            let (gmat, _) = bilateral_matrix(&rows_at(t + 0.5 * h, mid), mask, ndof);
-            let (hmat, rates) = bilateral_matrix(&rows_at(t + h, poses1), mask, ndof);
-            Elimination::new(&w, gmat, hmat, rates)
+            Elimination::new(&w, rows_at(t + 0.5 * h, mid), rows_at(t + h, poses1), mask)
         });
         let (constrained, q_free) = match &elimination {
             Some(e) => {
-                let q_free = e.schur.solve(&(&e.rates - &e.hmat * &*v_free));
-                (Some(&*v_free + &e.z * &q_free), q_free)
+                let q_free = e.impulses(v_free);
+                let mut constrained = v_free.clone();
+                e.add_response(&q_free, &mut constrained);
+                (Some(constrained), q_free)
             }
             None => (None, DVector::zeros(0)),
         };
@@ -590,7 +519,7 @@ fn contact_problem(
     shift: &[f64],
 ) -> ContactProblem {
     let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-        gblocks.iter().map(|b| w.solve_contact(b)).collect();
+        gblocks.iter().map(|b| w.solve_blocks(b)).collect();
     let corrections: Vec<Option<DMatrix<f64>>> = match elimination {
         Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
         None => Vec::new(),
@@ -623,36 +552,6 @@ fn contact_problem(
         w: dmat,
         q,
     }
-}
-
-/// Dense H (rows × dofs, held dofs zeroed) and the prescribed rates b of bilateral rows.
-pub fn bilateral_matrix(
-    rows: &[BilateralRow],
-    mask: &[bool],
-    ndof: usize,
-) -> (DMatrix<f64>, DVector<f64>) {
-    let mut hmat = DMatrix::zeros(rows.len(), ndof);
-    for (k, row) in rows.iter().enumerate() {
-        for (b, g) in row.a.iter().chain(row.b.iter()) {
-            for j in 0..6 {
-                if mask[6 * b + j] {
-                    hmat[(k, 6 * b + j)] += g[j];
-                }
-            }
-        }
-    }
-    (
-        hmat,
-        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.rate)),
-    )
-}
-
-/// W⁻¹ X column by column, in place.
-pub fn solve_columns(w: &IterationMatrix, mut x: DMatrix<f64>) -> DMatrix<f64> {
-    for mut column in x.column_iter_mut() {
-        w.solve_mut(&mut column);
-    }
-    x
 }
 
 /// ‖R − Σ Gᵀ P‖ over the integrated degrees of freedom.

@@ -5,7 +5,7 @@
 //! holds by construction. Iterated (Gauss–Newton) until the violation is below tolerance.
 //! Velocities are not touched.
 
-use super::moreau_jean::bilateral_matrix;
+use super::rows;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
@@ -254,8 +254,8 @@ impl<'a> Linearised<'a> {
         let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
         // C and L as dense matrices for the products with H⁻¹ Cᵀ, built only where this
         // step is tried (the Gauss–Newton step in `new` goes row by row)
-        let (cmat, _) = bilateral_matrix(&self.current.rows, mask, ndof);
-        let (lmat, _) = bilateral_matrix(&lateral, mask, ndof);
+        let (cmat, _) = rows::matrix(&self.current.rows, mask, ndof);
+        let (lmat, _) = rows::matrix(&lateral, mask, ndof);
         let mlt = inverse_mass_times_rows(minv, &lateral, ndof);
         let llt = &lmat * &mlt;
         let lmct = &lmat * &self.mct;

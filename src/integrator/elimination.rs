@@ -1,0 +1,156 @@
+//! The joints' rows eliminated from a velocity step (Schur complement). The impulses Q act
+//! along the rows at the step's midpoint, G = H(q_{k+½}), and the velocity meets the rows
+//! at its end, H = H(q_{k+1}): H v_{k+1} = b(t_{k+1}). So v = v_free + Z Q with Z = W⁻¹Gᵀ
+//! and S = H Z.
+//!
+//! The midpoint direction keeps the θ = 1/2 scheme second order on constrained motion
+//! (start-of-step rows, as in Siconos, are first order); the end-of-step condition leaves
+//! no free mode: imposing the midpoint rows on the mean velocity, G (v_k + v_{k+1})/2 = b,
+//! leaves v_{k+1} = 2b − v_k free to alternate step after step, which any impact excites
+//! and nothing damps. Z is nonzero only on the bodies W couples to jointed ones, so a
+//! contact away from the joints keeps its plain response.
+//!
+//! W is block diagonal and each row touches at most two bodies, so Z, S and the products
+//! with G and H are formed block by block (`rows.rs`), never as dense matrices over all the
+//! degrees of freedom.
+
+use super::iteration_matrix::IterationMatrix;
+use super::rows;
+use crate::mechanics::joint::BilateralRow;
+use crate::solver::EqualitySolver;
+use nalgebra::{DMatrix, DVector, Matrix6x3, RowVector6, Vector6};
+
+pub(super) struct Elimination {
+    /// G, the rows the impulses act along, and H, those the end-of-step velocity meets
+    /// (held degrees of freedom zeroed).
+    g: Vec<BilateralRow>,
+    h: Vec<BilateralRow>,
+    /// Z = W⁻¹Gᵀ by body: its nonzero blocks (row of G, W⁻¹ g_bᵀ on the body), those of
+    /// body b at `z[z_start[b]..z_start[b + 1]]`.
+    z: Vec<(usize, Vector6<f64>)>,
+    z_start: Vec<usize>,
+    schur: EqualitySolver,
+    /// Bodies on which H has nonzero blocks.
+    h_bodies: Vec<usize>,
+}
+
+impl Elimination {
+    /// The elimination of the rows `g` (impulse directions) and `h` (velocity conditions,
+    /// with their rates) for the iteration matrix `w`; `mask` marks the integrated degrees
+    /// of freedom.
+    pub(super) fn new(
+        w: &IterationMatrix,
+        g: Vec<BilateralRow>,
+        h: Vec<BilateralRow>,
+        mask: &[bool],
+    ) -> Self {
+        let (g, h) = (rows::masked(g, mask), rows::masked(h, mask));
+        let bodies = mask.len() / 6;
+        // Z's blocks, ordered by body (a counting sort keeps each body's in row order)
+        let mut blocks: Vec<(usize, usize, Vector6<f64>)> = Vec::with_capacity(2 * g.len());
+        let mut response = Vec::new();
+        for (k, row) in g.iter().enumerate() {
+            let mut on = [(0, RowVector6::zeros()); 2];
+            let mut count = 0;
+            for &(b, gb) in rows::blocks(row) {
+                on[count] = (b, gb);
+                count += 1;
+            }
+            w.solve_blocks_into(&on[..count], &mut response);
+            blocks.extend(response.iter().map(|&(b, y)| (b, k, y)));
+        }
+        let mut z_start = vec![0; bodies + 1];
+        blocks.iter().for_each(|&(b, _, _)| z_start[b + 1] += 1);
+        for b in 0..bodies {
+            z_start[b + 1] += z_start[b];
+        }
+        let mut next = z_start.clone();
+        let mut z = vec![(0, Vector6::zeros()); blocks.len()];
+        for (b, k, y) in blocks {
+            z[next[b]] = (k, y);
+            next[b] += 1;
+        }
+        // S = H Z over the bodies each row of H touches
+        let mut s = DMatrix::zeros(h.len(), g.len());
+        let mut on_h = vec![false; bodies];
+        for (k, row) in h.iter().enumerate() {
+            for (b, hb) in rows::blocks(row) {
+                on_h[*b] |= hb.iter().any(|&x| x != 0.0);
+                for (j, y) in &z[z_start[*b]..z_start[b + 1]] {
+                    s[(k, *j)] += hb.dot(&y.transpose());
+                }
+            }
+        }
+        Elimination {
+            schur: EqualitySolver::new(s),
+            g,
+            h,
+            z,
+            z_start,
+            h_bodies: (0..bodies).filter(|&b| on_h[b]).collect(),
+        }
+    }
+
+    /// Z's blocks on body `b`: (row of G, W⁻¹ g_bᵀ).
+    fn z_on(&self, b: usize) -> &[(usize, Vector6<f64>)] {
+        &self.z[self.z_start[b]..self.z_start[b + 1]]
+    }
+
+    /// The joints' impulses Q = S⁻¹(b − H v_free) that make `v_free` meet the rows.
+    pub(super) fn impulses(&self, v_free: &DVector<f64>) -> DVector<f64> {
+        let hv = rows::times_vector(&self.h, v_free.as_slice());
+        let rhs = DVector::from_iterator(
+            self.h.len(),
+            self.h.iter().zip(hv.iter()).map(|(r, hv)| r.rate - hv),
+        );
+        self.schur.solve(&rhs)
+    }
+
+    /// v + Z Q: the velocity that the joints' impulses Q give `v`.
+    pub(super) fn add_response(&self, q: &DVector<f64>, v: &mut DVector<f64>) {
+        for b in 0..self.z_start.len() - 1 {
+            let mut seg = v.fixed_rows_mut::<6>(6 * b);
+            for (j, y) in self.z_on(b) {
+                seg += y * q[*j];
+            }
+        }
+    }
+
+    /// Gᵀ Q, the generalised impulse of the joints' impulses Q.
+    pub(super) fn reactions(&self, q: &DVector<f64>) -> DVector<f64> {
+        rows::transposed_times(&self.g, q, 6 * (self.z_start.len() - 1))
+    }
+
+    /// Turns a contact's response y = W⁻¹Gᵀ into the constrained one, y − Z S⁻¹ H y, and
+    /// returns S⁻¹ H y (what its impulse takes from the joints' ones); None when H y = 0.
+    pub(super) fn constrain(&self, y: &mut Vec<(usize, Matrix6x3<f64>)>) -> Option<DMatrix<f64>> {
+        if !y.iter().any(|(b, _)| self.h_bodies.contains(b)) {
+            return None;
+        }
+        let mut hy = DMatrix::zeros(self.h.len(), 3);
+        for (k, row) in self.h.iter().enumerate() {
+            for (b, hb) in rows::blocks(row) {
+                if let Some((_, yb)) = y.iter().find(|(bb, _)| bb == b) {
+                    let mut out = hy.fixed_view_mut::<1, 3>(k, 0);
+                    out += hb * yb;
+                }
+            }
+        }
+        let corr = self.schur.solve_matrix(&hy);
+        for b in 0..self.z_start.len() - 1 {
+            let on = self.z_on(b);
+            if on.is_empty() {
+                continue;
+            }
+            let mut blk = Matrix6x3::zeros();
+            for (j, zb) in on {
+                blk += zb * corr.fixed_view::<1, 3>(*j, 0);
+            }
+            match y.iter_mut().find(|(bb, _)| *bb == b) {
+                Some((_, yb)) => *yb -= blk,
+                None => y.push((b, -blk)),
+            }
+        }
+        Some(corr)
+    }
+}
