@@ -100,11 +100,16 @@ fn inverse6(m: Matrix6<f64>) -> Matrix6<f64> {
     inverse.unwrap_or_else(|| Matrix6::from_element(f64::NAN))
 }
 
-pub struct IterationMatrix<'m> {
-    mask: &'m [bool],
+/// W, kept as the inverses of its groups. Its buffers are reused when it is assembled
+/// again (`reassemble`): a step keeps one across its Newton iterations and the next steps.
+#[derive(Default)]
+pub struct IterationMatrix {
+    mask: Vec<bool>,
     groups: Vec<Group>,
     /// Group index of each body.
     group_of: Vec<usize>,
+    /// Each body's diagonal block of W, while it is assembled.
+    diag: Vec<Matrix6<f64>>,
 }
 
 /// Scratch space of the finite differences: the force buffers of the two perturbations
@@ -135,13 +140,13 @@ fn component_roots(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec
     (0..n).map(|i| root(&mut parent, i)).collect()
 }
 
-impl<'m> IterationMatrix<'m> {
+impl IterationMatrix {
     /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ, with
     /// the settling damping rate `damping` (α: ∂F/∂v = −α M); `mask` is `model.dof_mask()`.
     #[allow(clippy::too_many_arguments)]
     pub fn assemble(
         model: &Model,
-        mask: &'m [bool],
+        mask: &[bool],
         t: f64,
         poses: &[Pose],
         v: &DVector<f64>,
@@ -149,8 +154,33 @@ impl<'m> IterationMatrix<'m> {
         theta: f64,
         damping: f64,
     ) -> Self {
+        let mut w = IterationMatrix::default();
+        w.reassemble(model, mask, t, poses, v, h, theta, damping);
+        w
+    }
+
+    /// `assemble` into this matrix's buffers: everything is overwritten, nothing of the
+    /// last assembly is read.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reassemble(
+        &mut self,
+        model: &Model,
+        mask: &[bool],
+        t: f64,
+        poses: &[Pose],
+        v: &DVector<f64>,
+        h: f64,
+        theta: f64,
+        damping: f64,
+    ) {
         let n = model.bodies.len();
-        let mut diag = vec![Matrix6::zeros(); n];
+        self.mask.clear();
+        self.mask.extend_from_slice(mask);
+        self.groups.clear();
+        self.group_of.clear();
+        let mut diag = std::mem::take(&mut self.diag);
+        diag.clear();
+        diag.resize(n, Matrix6::zeros());
         let mut off: BTreeMap<(usize, usize), Matrix6<f64>> = BTreeMap::new();
         let damped = 1.0 + h * theta * damping;
         for (i, b) in model.bodies.iter().enumerate() {
@@ -283,25 +313,22 @@ impl<'m> IterationMatrix<'m> {
         }
         if off.is_empty() {
             // no force element couples two moving bodies: every body is its own group
-            return IterationMatrix {
-                mask,
-                groups: diag
-                    .iter()
-                    .enumerate()
-                    .map(|(body, d)| Group::Single {
-                        body,
-                        inverse: inverse6(*d),
-                    })
-                    .collect(),
-                group_of: (0..n).collect(),
-            };
+            self.groups
+                .extend(diag.iter().enumerate().map(|(body, d)| Group::Single {
+                    body,
+                    inverse: inverse6(*d),
+                }));
+            self.group_of.extend(0..n);
+            self.diag = diag;
+            return;
         }
         // the groups in order of their first body
         let roots = component_roots(n, off.keys().copied());
         let mut size = vec![0usize; n];
         roots.iter().for_each(|&r| size[r] += 1);
-        let mut groups = Vec::with_capacity(n);
-        let mut group_of = vec![0; n];
+        let groups = &mut self.groups;
+        let group_of = &mut self.group_of;
+        group_of.resize(n, 0);
         for first in (0..n).filter(|&i| roots[i] == i) {
             let group = if size[first] == 1 {
                 group_of[first] = groups.len();
@@ -339,11 +366,7 @@ impl<'m> IterationMatrix<'m> {
             };
             groups.push(group);
         }
-        IterationMatrix {
-            mask,
-            groups,
-            group_of,
-        }
+        self.diag = diag;
     }
 
     /// W⁻¹ rhs (held dofs give zero).

@@ -216,6 +216,7 @@ pub fn velocity_step(
         dv,
         v_free,
         poses1,
+        w,
     } = &mut *scratch;
     model.wrench(t, poses, v0, f0);
     model.mass_times(v0, mv);
@@ -310,7 +311,7 @@ pub fn velocity_step(
             }
         }
         iterations += 1;
-        let w = IterationMatrix::assemble(model, mask, t + h, poses1, &v, h, theta, alpha);
+        w.reassemble(model, mask, t + h, poses1, &v, h, theta, alpha);
         // v_free = v − W⁻¹ R, in the buffer kept across the iterations
         v_free.copy_from(&*resid);
         w.solve_mut(v_free);
@@ -342,7 +343,7 @@ pub fn velocity_step(
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         elimination = joints.map(|rows_at| {
             let mid = mid.as_ref().expect("midpoint poses with joints");
-            Elimination::new(&w, rows_at(t + 0.5 * h, mid), rows_at(t + h, poses1), mask)
+            Elimination::new(w, rows_at(t + 0.5 * h, mid), rows_at(t + h, poses1), mask)
         });
         let (constrained, q_free) = match &elimination {
             Some(e) => {
@@ -366,7 +367,7 @@ pub fn velocity_step(
             ys, corrections, ..
         } = loop {
             let problem = contact_problem(
-                &w,
+                w,
                 &elimination,
                 &gblocks,
                 hblocks.as_deref(),
@@ -450,6 +451,7 @@ struct Scratch {
     dv: DVector<f64>,
     v_free: DVector<f64>,
     poses1: Vec<Pose>,
+    w: IterationMatrix,
 }
 
 impl Scratch {
@@ -608,6 +610,7 @@ mod tests {
                     dv: nan(),
                     v_free: nan(),
                     poses1: sim.state.poses.clone(),
+                    w: IterationMatrix::default(),
                 })));
             }
             sim.run_until(duration, |_, _| {}).unwrap();
