@@ -88,23 +88,30 @@ impl Simulation {
                 .filter(|&i| self.guard_ring[i].is_none())
                 .collect();
             let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
-            let trial = poses.clone();
-            report.projection =
+            // (a mechanism without joints and contacts has nothing to project)
+            let trial = (!self.model.joints.is_empty() || !pool.is_empty()).then(|| poses.clone());
+            let mut pool_points;
+            (report.projection, pool_points) =
                 self.project_poses(&mut poses, &pool, &selected, ContactRows::Equality);
             // Held shut together, the closed contacts may admit no poses near the trial (a
             // tilted journal pressed on one flange and held at the other, 45 µm open, by
             // the last step's impulse): then let every active contact open, g ≥ 0, which
             // the start of the step satisfies.
-            if !report.projection.converged {
+            if let (false, Some(trial)) = (report.projection.converged, trial) {
                 poses = trial;
-                report.projection =
+                (report.projection, pool_points) =
                     self.project_poses(&mut poses, &pool, &|_, _| true, ContactRows::Inequality);
             }
             report.active_set_passes = pass;
-            // activation from the end-of-step position
+            // activation from the end-of-step position (the pool's pair contacts and joint
+            // stops as the projection left them)
+            let known = |k: usize| {
+                let points = pool_points.as_ref()?;
+                pool.binary_search(&k).ok().map(|j| points[j])
+            };
             let mut after = Vec::new();
             self.model
-                .evaluate_selected(&poses, &self.candidates, &mut after);
+                .evaluate_selected_knowing(&poses, &self.candidates, known, &mut after);
             let new: Vec<usize> = (0..after.len())
                 .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
                 .collect();

@@ -17,6 +17,7 @@ use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::SolverStatus;
 use nalgebra::{Matrix6, Vector3};
+use std::cell::RefCell;
 
 /// Diagnostics of one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -344,6 +345,21 @@ impl Simulation {
     fn velocity_of(&self, active: &[usize]) -> VelocityStep {
         let joints = &self.model.joints;
         let rows_at = |t: f64, poses: &[Pose]| self.model.joint_rows(t, poses);
+        let rows_at =
+            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>);
+        let params = self.step_params();
+        let start = StepStart {
+            model: &self.model,
+            mask: &self.mask,
+            params: &params,
+            damping: self.schedule.settle_damping(self.state.t),
+            t: self.state.t,
+            poses: &self.state.poses,
+            v0: &self.state.v,
+        };
+        if active.is_empty() {
+            return velocity_step(&start, &[], &[], None, rows_at);
+        }
         // The contacts enter as copies: while settling, those that lose their friction with
         // μ = 0; and, where positions are projected, those closed in the last step and
         // approaching with e = 0. A closed contact (pressed, or in the last velocity problem
@@ -423,50 +439,42 @@ impl Simulation {
                 }
             })
             .collect();
-        let params = self.step_params();
-        let start = StepStart {
-            model: &self.model,
-            mask: &self.mask,
-            params: &params,
-            damping: self.schedule.settle_damping(self.state.t),
-            t: self.state.t,
-            poses: &self.state.poses,
-            v0: &self.state.v,
-        };
-        velocity_step(
-            &start,
-            &refs,
-            &warm,
-            Some(&contacts),
-            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>),
-        )
+        velocity_step(&start, &refs, &warm, Some(&contacts), rows_at)
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
-    /// indices) that `which` chooses, given their contact points at those poses.
+    /// indices) that `which` chooses, given their contact points at those poses. Also
+    /// returns the pool's points at the poses it leaves, when it evaluated them there (a
+    /// projection that finds the poses admissible leaves them as they are).
     pub(super) fn project_poses(
         &self,
         poses: &mut [Pose],
         pool: &[usize],
         which: &dyn Fn(usize, &ContactPoint) -> bool,
         mode: ContactRows,
-    ) -> ProjectionOutcome {
+    ) -> (ProjectionOutcome, Option<Vec<ContactPoint>>) {
         let model = &self.model;
         if model.joints.is_empty() && pool.is_empty() {
             // nothing to project: what `project` reports for no rows
-            return ProjectionOutcome {
+            let outcome = ProjectionOutcome {
                 converged: true,
                 ..Default::default()
             };
+            return (outcome, None);
         }
         let candidates: Vec<Candidate> = pool.iter().map(|&i| self.candidates[i]).collect();
+        // the poses last evaluated and the pool's points there
+        let last = RefCell::new((Vec::new(), Vec::new()));
         let points = |ps: &[Pose]| -> Vec<ContactPoint> {
-            let mut pts = Vec::with_capacity(pool.len());
-            model.evaluate_selected(ps, &candidates, &mut pts);
+            let mut last = last.borrow_mut();
+            let (at, pts) = &mut *last;
+            at.clear();
+            at.extend_from_slice(ps);
+            model.evaluate_selected(ps, &candidates, pts);
             pool.iter()
-                .zip(pts)
+                .zip(pts.iter())
                 .filter(|(&i, cp)| which(i, cp))
-                .map(|(_, cp)| cp)
+                .map(|(_, cp)| *cp)
                 .collect()
         };
         let trial = poses.to_vec();
@@ -487,8 +495,10 @@ impl Simulation {
         // its flanges at a coarse step was thrown nine times the step's own motion, and
         // the bar gained 0.17 J. The step is then taken in halves, as for a projection
         // that found no solution. (A projection that took no iteration left the trial.)
+        let (at, pts) = last.into_inner();
+        let pool_points = (at == *poses).then_some(pts);
         if outcome.iterations == 0 {
-            return outcome;
+            return (outcome, pool_points);
         }
         let tolerance = self.params.projection_tolerance;
         let admissible = (0..self.points.len())
@@ -500,7 +510,7 @@ impl Simulation {
         {
             outcome.converged = false;
         }
-        outcome
+        (outcome, pool_points)
     }
 
     /// Advances one step of size h (the settle's step while settling), in parts where it
@@ -558,12 +568,9 @@ impl Simulation {
                 let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
-                    report.projection = self.project_poses(
-                        &mut poses,
-                        &active,
-                        &|_, _| true,
-                        ContactRows::Inequality,
-                    );
+                    report.projection = self
+                        .project_poses(&mut poses, &active, &|_, _| true, ContactRows::Inequality)
+                        .0;
                 }
                 Outcome {
                     active,

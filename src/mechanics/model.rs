@@ -198,18 +198,31 @@ impl Model {
         selected: &[Candidate],
         out: &mut Vec<ContactPoint>,
     ) {
+        self.evaluate_selected_knowing(poses, selected, |_| None, out);
+    }
+
+    /// `evaluate_selected`, taking the points of contact pairs and joint stops that
+    /// `known(k)` gives for the k-th selected candidate (evaluated at the same poses)
+    /// instead of evaluating them again.
+    pub fn evaluate_selected_knowing(
+        &self,
+        poses: &[Pose],
+        selected: &[Candidate],
+        known: impl Fn(usize) -> Option<ContactPoint>,
+        out: &mut Vec<ContactPoint>,
+    ) {
         out.clear();
         out.reserve(selected.len());
         let mut rest = selected;
         while let Some((&first, tail)) = rest.split_first() {
+            let k = selected.len() - rest.len();
             rest = tail;
             match first {
                 Candidate::Pair { pair, point } => {
-                    out.push(self.contacts[pair].evaluate(point, poses))
+                    out.push(known(k).unwrap_or_else(|| self.contacts[pair].evaluate(point, poses)))
                 }
-                Candidate::Limit { joint, upper } => {
-                    out.push(self.joints[joint].limit_point(upper, poses))
-                }
+                Candidate::Limit { joint, upper } => out
+                    .push(known(k).unwrap_or_else(|| self.joints[joint].limit_point(upper, poses))),
                 Candidate::Clearance { joint, point } => {
                     // this joint's run of points, placed once
                     let same = |c: &Candidate| match *c {
