@@ -147,3 +147,44 @@ impl Simulation {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::Scene;
+    use std::path::Path;
+
+    /// The contact points a step leaves (the activation's, some of them handed on by the
+    /// projection) are those a fresh evaluation at the step's end gives, bit for bit: on
+    /// the incline block (contact pairs, which the projection hands on) and the cam
+    /// follower (a follower on a cam profile, with joints).
+    #[test]
+    fn a_step_leaves_the_points_of_its_end_poses() {
+        for (name, duration) in [("incline-block", 0.5), ("cam-follower", 0.05)] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("studies")
+                .join(name)
+                .join("scene.yaml");
+            let mut sim = Scene::load(&path).unwrap().simulation().unwrap();
+            let candidates = sim.contact_ids().to_vec();
+            let mut fresh = Vec::new();
+            let mut steps = 0;
+            sim.run_until(duration, |sim, _| {
+                sim.model
+                    .evaluate_selected(&sim.state.poses, &candidates, &mut fresh);
+                for (k, (left, fresh)) in sim.contact_points().iter().zip(&fresh).enumerate() {
+                    let v = sim.state.v.as_slice();
+                    assert_eq!(left.gap().to_bits(), fresh.gap().to_bits(), "{name} {k}");
+                    assert_eq!(left.frame, fresh.frame, "{name} {k}");
+                    assert_eq!(
+                        left.local_velocity(v),
+                        fresh.local_velocity(v),
+                        "{name} {k}"
+                    );
+                }
+                steps += 1;
+            })
+            .unwrap();
+            assert!(steps > 10, "{name}");
+        }
+    }
+}
