@@ -588,10 +588,11 @@ mod tests {
     use crate::scene::Scene;
     use std::path::Path;
 
-    /// A step reads nothing that an earlier one left in the scratch vectors: the same run
-    /// ends in the same state on a fresh thread and on one whose scratch vectors were first
-    /// filled with NaN, which any read before a write would spread. The ball bounces (a
-    /// contact under Moreau–Jean); the four-bar's joints are eliminated and projected.
+    /// A step reads nothing that an earlier one left in its scratch: the same run ends in
+    /// the same state on a fresh thread and on one whose scratch vectors were first filled
+    /// with NaN, and whose iteration matrix was assembled at NaN velocities, which any read
+    /// before a write would spread. The ball bounces (a contact under Moreau–Jean); the
+    /// four-bar's joints are eliminated and projected.
     #[test]
     fn a_step_reads_nothing_an_earlier_one_left_in_its_scratch() {
         let run = |name: &'static str, duration: f64, poison: bool| {
@@ -610,7 +611,16 @@ mod tests {
                     dv: nan(),
                     v_free: nan(),
                     poses1: sim.state.poses.clone(),
-                    w: IterationMatrix::default(),
+                    w: IterationMatrix::assemble(
+                        &sim.model,
+                        &sim.model.dof_mask(),
+                        0.0,
+                        &sim.state.poses,
+                        &nan(),
+                        1e-3,
+                        0.5,
+                        0.0,
+                    ),
                 })));
             }
             sim.run_until(duration, |_, _| {}).unwrap();
