@@ -101,7 +101,7 @@ fn inverse6(m: Matrix6<f64>) -> Matrix6<f64> {
 }
 
 /// W, kept as the inverses of its groups. Its buffers are reused when it is assembled
-/// again (`reassemble`): a step keeps one across its Newton iterations and the next steps.
+/// again (`assemble`): a step keeps one across its Newton iterations and the next steps.
 #[derive(Default)]
 pub struct IterationMatrix {
     mask: Vec<bool>,
@@ -143,26 +143,10 @@ fn component_roots(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec
 impl IterationMatrix {
     /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ, with
     /// the settling damping rate `damping` (α: ∂F/∂v = −α M); `mask` is `model.dof_mask()`.
+    /// Everything is overwritten: nothing of the last assembly is read, only its buffers
+    /// are reused.
     #[allow(clippy::too_many_arguments)]
     pub fn assemble(
-        model: &Model,
-        mask: &[bool],
-        t: f64,
-        poses: &[Pose],
-        v: &DVector<f64>,
-        h: f64,
-        theta: f64,
-        damping: f64,
-    ) -> Self {
-        let mut w = IterationMatrix::default();
-        w.reassemble(model, mask, t, poses, v, h, theta, damping);
-        w
-    }
-
-    /// `assemble` into this matrix's buffers: everything is overwritten, nothing of the
-    /// last assembly is read.
-    #[allow(clippy::too_many_arguments)]
-    pub fn reassemble(
         &mut self,
         model: &Model,
         mask: &[bool],

@@ -311,7 +311,7 @@ pub fn velocity_step(
             }
         }
         iterations += 1;
-        w.reassemble(model, mask, t + h, poses1, &v, h, theta, alpha);
+        w.assemble(model, mask, t + h, poses1, &v, h, theta, alpha);
         // v_free = v − W⁻¹ R, in the buffer kept across the iterations
         v_free.copy_from(&*resid);
         w.solve_mut(v_free);
@@ -611,16 +611,21 @@ mod tests {
                     dv: nan(),
                     v_free: nan(),
                     poses1: sim.state.poses.clone(),
-                    w: IterationMatrix::assemble(
-                        &sim.model,
-                        &sim.model.dof_mask(),
-                        0.0,
-                        &sim.state.poses,
-                        &nan(),
-                        1e-3,
-                        0.5,
-                        0.0,
-                    ),
+                    w: {
+                        let mut w = IterationMatrix::default();
+                        let mask = sim.model.dof_mask();
+                        w.assemble(
+                            &sim.model,
+                            &mask,
+                            0.0,
+                            &sim.state.poses,
+                            &nan(),
+                            1e-3,
+                            0.5,
+                            0.0,
+                        );
+                        w
+                    },
                 })));
             }
             sim.run_until(duration, |_, _| {}).unwrap();
