@@ -17,7 +17,7 @@ use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::joint::{BilateralRow, Drive, Joint, JointKind, RowUnit, ScalarProfile};
 use crate::mechanics::{Model, Motion, Pose};
 use crate::solver::EqualitySolver;
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::Vector3;
 use std::fmt;
 
 /// The joint-space initial condition of an ideal joint (from its `initial` block): its
@@ -240,13 +240,7 @@ pub fn assemble(
     let (rows, names) = rows(&velocity_joints, &poses);
     if !rows.is_empty() {
         let (h, b) = rows::matrix(&rows, &mask, ndof);
-        let mut mht = DMatrix::zeros(ndof, rows.len());
-        for (k, row) in rows.iter().enumerate() {
-            for (body, g) in row.a.iter().chain(row.b.iter()) {
-                let mut col = mht.fixed_view_mut::<6, 1>(6 * body, k);
-                col += minv[*body] * g.transpose();
-            }
-        }
+        let mht = rows::inverse_mass_times_rows(&minv, &rows, ndof);
         let violation = &h * &v - &b;
         let scale = b.amax().max((&h * &v).amax());
         if violation.amax() > 1e-14 * scale.max(f64::MIN_POSITIVE) {

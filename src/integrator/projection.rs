@@ -144,23 +144,6 @@ fn evaluate_rows(
     }
 }
 
-/// M⁻¹ Rᵀ for the rows R (ndof × rows): each row touches at most two bodies, so each
-/// column is at most two blocks M_b⁻¹ g_bᵀ (held dofs are zero in `minv`, which masks them).
-fn inverse_mass_times_rows(
-    minv: &[Matrix6<f64>],
-    rows: &[BilateralRow],
-    ndof: usize,
-) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(ndof, rows.len());
-    for (k, row) in rows.iter().enumerate() {
-        for (b, g) in row.a.iter().chain(row.b.iter()) {
-            let mut col = out.fixed_view_mut::<6, 1>(6 * b, k);
-            col += minv[*b] * g.transpose();
-        }
-    }
-    out
-}
-
 /// R X for the rows R and a matrix X with a row per dof, over each row's (at most two)
 /// bodies only: R M⁻¹ Rᵀ without the dense product's zeros (a held dof needs no mask
 /// here: its row of M⁻¹ Rᵀ is zero).
@@ -203,7 +186,7 @@ impl<'a> Linearised<'a> {
         mode: ContactRows,
         tolerance: f64,
     ) -> Self {
-        let mct = inverse_mass_times_rows(minv, &current.rows, ndof);
+        let mct = rows::inverse_mass_times_rows(minv, &current.rows, ndof);
         let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
         let mut linear = Linearised {
             current,
@@ -256,7 +239,7 @@ impl<'a> Linearised<'a> {
         // step is tried (the Gauss–Newton step in `new` goes row by row)
         let (cmat, _) = rows::matrix(&self.current.rows, mask, ndof);
         let (lmat, _) = rows::matrix(&lateral, mask, ndof);
-        let mlt = inverse_mass_times_rows(minv, &lateral, ndof);
+        let mlt = rows::inverse_mass_times_rows(minv, &lateral, ndof);
         let llt = &lmat * &mlt;
         let lmct = &lmat * &self.mct;
         let stiffness = |lambda: &DVector<f64>| -> Vec<f64> {

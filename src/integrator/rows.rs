@@ -4,7 +4,7 @@
 //! freedom.
 
 use crate::mechanics::joint::BilateralRow;
-use nalgebra::{DMatrix, DVector, RowVector6};
+use nalgebra::{DMatrix, DVector, Matrix6, RowVector6};
 
 /// The row's blocks on its (at most two) bodies.
 pub fn blocks(row: &BilateralRow) -> impl Iterator<Item = &(usize, RowVector6<f64>)> {
@@ -28,6 +28,23 @@ pub fn matrix(rows: &[BilateralRow], mask: &[bool], ndof: usize) -> (DMatrix<f64
         hmat,
         DVector::from_iterator(rows.len(), rows.iter().map(|r| r.rate)),
     )
+}
+
+/// M⁻¹ Rᵀ for the rows R (ndof × rows): each row touches at most two bodies, so each
+/// column is at most two blocks M_b⁻¹ g_bᵀ (held dofs are zero in `minv`, which masks them).
+pub fn inverse_mass_times_rows(
+    minv: &[Matrix6<f64>],
+    rows: &[BilateralRow],
+    ndof: usize,
+) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(ndof, rows.len());
+    for (k, row) in rows.iter().enumerate() {
+        for (b, g) in blocks(row) {
+            let mut col = out.fixed_view_mut::<6, 1>(6 * b, k);
+            col += minv[*b] * g.transpose();
+        }
+    }
+    out
 }
 
 /// The rows with the held degrees of freedom (`mask` false) zeroed in their blocks: what
@@ -100,5 +117,10 @@ mod tests {
         assert!((times_vector(&rows, v.as_slice()) - &dense * &v).amax() < 1e-14);
         let lambda = DVector::from_vec(vec![0.3, -2.0]);
         assert!((transposed_times(&rows, &lambda, ndof) - dense.tr_mul(&lambda)).amax() < 1e-14);
+        // held degrees of freedom are zero in M⁻¹, which masks them
+        let mut minv = vec![Matrix6::identity() * 2.0; 3];
+        minv[1][(4, 4)] = 0.0;
+        let mct = inverse_mass_times_rows(&minv, &rows, ndof);
+        assert!((mct - dense.transpose() * 2.0).amax() < 1e-14);
     }
 }
