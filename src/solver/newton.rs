@@ -80,9 +80,9 @@ fn phi_and_jacobian(
 
 /// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
 /// natural-map error), leaving the best iterate in `r` either way. `pattern` is W's block
-/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are taken in a fill-reducing order
-/// (`BlockPattern::minimum_degree`), which keeps the LU of the Jacobian sparse: on the
-/// circuit breaker it halves the factorisation's work.
+/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are
+/// taken in a fill-reducing order (`BlockPattern::minimum_degree`), which keeps the LU of
+/// the Jacobian sparse: on the circuit breaker it halves the factorisation's work.
 pub fn global_newton(
     p: &Fc3d,
     pattern: &BlockPattern,
