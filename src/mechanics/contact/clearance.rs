@@ -53,8 +53,12 @@ pub struct ClearanceJoint {
 const RING_POINTS: usize = 6;
 
 /// Newton iterations on the ring angle (1–3 are enough from the intersection guess; the
-/// loop stops at machine precision).
+/// loop stops at `ANGLE_STEP`).
 const NEWTON_STEPS: usize = 5;
+
+/// The smallest Newton step on the ring angle that is taken (rad): it moves a ring point of
+/// radius r by 1e-12 r, and the angle it leaves out is of order the step squared.
+const ANGLE_STEP: f64 = 1e-12;
 
 impl ClearanceJoint {
     pub fn bore_radius(&self) -> f64 {
@@ -328,9 +332,14 @@ impl Ring {
     /// Cosine and sine of the angle of the ring point closest to the axis (`p`, unit
     /// `aj`): from where the axis crosses the ring plane, refined by Newton on f'(φ) = 0
     /// with f(φ) = ‖(P(φ) − p) × aj‖², accepted only where f'' > 0. The angle is kept as
-    /// its cosine and sine, each Newton step δ applied as the rotation by atan δ (exact,
-    /// normalised): the same root, reached as fast (atan δ = δ − δ³/3), without a sine,
-    /// cosine or arctangent per joint and step.
+    /// its cosine and sine, each Newton step δ = f'/f'' applied as the rotation by atan δ
+    /// (exact, normalised): the same root, reached as fast (atan δ = δ − δ³/3), without a
+    /// sine, cosine or arctangent per joint and step. The rotation by atan(f'/f'') is
+    /// formed from f' and f'' directly (one square root and one division: the roots and
+    /// divisions, not the products, are what this costs). A step below `ANGLE_STEP` is not
+    /// taken: f' is rounded to about 1e-16 r² against f'' ≈ r e (e the journal's offset),
+    /// so at a clearance of micrometres the steps below it are rounding noise, which the
+    /// loop would chase to its last iteration.
     fn closest_angle(&self, p: &Vector3<f64>, aj: &Vector3<f64>) -> (f64, f64) {
         let (c, a, r, b1, b2) = (&self.c, &self.a, self.r, &self.b1, &self.b2);
         let denom = a.dot(aj);
@@ -341,9 +350,10 @@ impl Ring {
         };
         let e = s - c;
         let (ex, ey) = (e.dot(b1), e.dot(b2));
-        let norm = ex.hypot(ey);
-        let (mut cs, mut sn) = if norm > 0.0 {
-            (ex / norm, ey / norm)
+        let norm2 = ex * ex + ey * ey;
+        let (mut cs, mut sn) = if norm2 > 0.0 {
+            let k = 1.0 / norm2.sqrt();
+            (ex * k, ey * k)
         } else {
             (1.0, 0.0)
         };
@@ -354,16 +364,12 @@ impl Ring {
             let (wa, w1a, w2a) = (w.dot(aj), w1.dot(aj), w2.dot(aj));
             let d1 = w.dot(&w1) - wa * w1a;
             let d2 = w1.dot(&w1) + w.dot(&w2) - w1a * w1a - wa * w2a;
-            if d2 <= 0.0 {
+            if d2 <= 0.0 || d1.abs() <= ANGLE_STEP * d2 {
                 break;
             }
-            // φ ← φ − atan δ
-            let step = d1 / d2;
-            let k = 1.0 / (1.0 + step * step).sqrt();
-            (cs, sn) = ((cs + step * sn) * k, (sn - step * cs) * k);
-            if step.abs() <= 1e-15 {
-                break;
-            }
+            // φ ← φ − atan(d1/d2): cos and sin of atan(d1/d2) are d2/h and d1/h
+            let k = 1.0 / (d1 * d1 + d2 * d2).sqrt();
+            (cs, sn) = ((cs * d2 + sn * d1) * k, (sn * d2 - cs * d1) * k);
         }
         (cs, sn)
     }
