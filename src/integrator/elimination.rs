@@ -15,11 +15,16 @@
 //! degrees of freedom.
 
 use super::iteration_matrix::IterationMatrix;
+use super::moreau_jean::JointRowsAt;
 use super::rows;
 use crate::mechanics::joint::BilateralRow;
+use crate::mechanics::Pose;
 use crate::solver::EqualitySolver;
 use nalgebra::{DMatrix, DVector, Matrix6x3, RowVector6, Vector6};
 
+/// The elimination, kept from one step to the next with all its storage (a velocity step
+/// re-forms it at every Newton iteration).
+#[derive(Default)]
 pub(super) struct Elimination {
     /// G, the rows the impulses act along, and H, those the end-of-step velocity meets
     /// (held degrees of freedom zeroed).
@@ -32,63 +37,82 @@ pub(super) struct Elimination {
     schur: EqualitySolver,
     /// Bodies on which H has nonzero blocks.
     h_bodies: Vec<usize>,
+    /// Scratch: Z's blocks as (body, row, block) before they are sorted by body, a row's
+    /// response, the next free place of each body's blocks, the bodies H touches, and the
+    /// solves' refinement.
+    unsorted: Vec<(usize, usize, Vector6<f64>)>,
+    response: Vec<(usize, Vector6<f64>)>,
+    next: Vec<usize>,
+    on_h: Vec<bool>,
+    work: Vec<f64>,
 }
 
 impl Elimination {
-    /// The elimination of the rows `g` (impulse directions) and `h` (velocity conditions,
-    /// with their rates) for the iteration matrix `w`; `mask` marks the integrated degrees
-    /// of freedom.
-    pub(super) fn new(
+    /// Re-forms the elimination of the joints' rows `rows_at` at `g_at` (impulse
+    /// directions) and at `h_at` (velocity conditions, with their rates) for the iteration
+    /// matrix `w`; `mask` marks the integrated degrees of freedom.
+    pub(super) fn assemble(
+        &mut self,
         w: &IterationMatrix,
-        g: Vec<BilateralRow>,
-        h: Vec<BilateralRow>,
+        rows_at: JointRowsAt,
+        g_at: (f64, &[Pose]),
+        h_at: (f64, &[Pose]),
         mask: &[bool],
-    ) -> Self {
-        let (g, h) = (rows::masked(g, mask), rows::masked(h, mask));
+    ) {
+        for (rows, (t, poses)) in [(&mut self.g, g_at), (&mut self.h, h_at)] {
+            rows.clear();
+            rows_at(t, poses, rows);
+            rows::mask(rows, mask);
+        }
         let bodies = mask.len() / 6;
         // Z's blocks, ordered by body (a counting sort keeps each body's in row order)
-        let mut blocks: Vec<(usize, usize, Vector6<f64>)> = Vec::with_capacity(2 * g.len());
-        let mut response = Vec::new();
-        for (k, row) in g.iter().enumerate() {
+        let blocks = &mut self.unsorted;
+        blocks.clear();
+        for (k, row) in self.g.iter().enumerate() {
             let mut on = [(0, RowVector6::zeros()); 2];
             let mut count = 0;
             for &(b, gb) in rows::blocks(row) {
                 on[count] = (b, gb);
                 count += 1;
             }
-            w.solve_blocks_into(&on[..count], &mut response);
-            blocks.extend(response.iter().map(|&(b, y)| (b, k, y)));
+            w.solve_blocks_into(&on[..count], &mut self.response);
+            blocks.extend(self.response.iter().map(|&(b, y)| (b, k, y)));
         }
-        let mut z_start = vec![0; bodies + 1];
+        let z_start = &mut self.z_start;
+        z_start.clear();
+        z_start.resize(bodies + 1, 0);
         blocks.iter().for_each(|&(b, _, _)| z_start[b + 1] += 1);
         for b in 0..bodies {
             z_start[b + 1] += z_start[b];
         }
-        let mut next = z_start.clone();
-        let mut z = vec![(0, Vector6::zeros()); blocks.len()];
-        for (b, k, y) in blocks {
-            z[next[b]] = (k, y);
-            next[b] += 1;
+        self.next.clone_from(z_start);
+        self.z.clear();
+        self.z.resize(blocks.len(), (0, Vector6::zeros()));
+        for &(b, k, y) in blocks.iter() {
+            self.z[self.next[b]] = (k, y);
+            self.next[b] += 1;
         }
         // S = H Z over the bodies each row of H touches
-        let mut s = DMatrix::zeros(h.len(), g.len());
-        let mut on_h = vec![false; bodies];
-        for (k, row) in h.iter().enumerate() {
+        let (z, z_start) = (&self.z, &self.z_start);
+        let s = self.schur.zeroed(self.h.len());
+        debug_assert_eq!(
+            self.g.len(),
+            self.h.len(),
+            "G and H are the same joints' rows"
+        );
+        self.on_h.clear();
+        self.on_h.resize(bodies, false);
+        for (k, row) in self.h.iter().enumerate() {
             for (b, hb) in rows::blocks(row) {
-                on_h[*b] |= hb.iter().any(|&x| x != 0.0);
+                self.on_h[*b] |= hb.iter().any(|&x| x != 0.0);
                 for (j, y) in &z[z_start[*b]..z_start[b + 1]] {
                     s[(k, *j)] += hb.dot(&y.transpose());
                 }
             }
         }
-        Elimination {
-            schur: EqualitySolver::new(s),
-            g,
-            h,
-            z,
-            z_start,
-            h_bodies: (0..bodies).filter(|&b| on_h[b]).collect(),
-        }
+        self.schur.factorise();
+        self.h_bodies.clear();
+        self.h_bodies.extend((0..bodies).filter(|&b| self.on_h[b]));
     }
 
     /// Z's blocks on body `b`: (row of G, W⁻¹ g_bᵀ).
@@ -97,13 +121,14 @@ impl Elimination {
     }
 
     /// The joints' impulses Q = S⁻¹(b − H v_free) that make `v_free` meet the rows.
-    pub(super) fn impulses(&self, v_free: &DVector<f64>) -> DVector<f64> {
-        let hv = rows::times_vector(&self.h, v_free.as_slice());
-        let rhs = DVector::from_iterator(
+    pub(super) fn impulses(&mut self, v_free: &DVector<f64>) -> DVector<f64> {
+        let v = v_free.as_slice();
+        let mut q = DVector::from_iterator(
             self.h.len(),
-            self.h.iter().zip(hv.iter()).map(|(r, hv)| r.rate - hv),
+            self.h.iter().map(|r| r.rate - rows::dot(r, v)),
         );
-        self.schur.solve(&rhs)
+        self.schur.solve_in_place(q.as_mut_slice(), &mut self.work);
+        q
     }
 
     /// v + Z Q: the velocity that the joints' impulses Q give `v`.

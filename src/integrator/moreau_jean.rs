@@ -16,8 +16,8 @@ use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus};
 use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 
-/// The joints' bilateral rows evaluated at a time and poses.
-pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>;
+/// The joints' bilateral rows evaluated at a time and poses, appended to a list.
+pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose], &mut Vec<BilateralRow>);
 
 /// The active contacts at positions `which` evaluated at other poses.
 pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
@@ -217,6 +217,7 @@ pub fn velocity_step(
         v_free,
         poses1,
         w,
+        elimination,
     } = &mut *scratch;
     model.wrench(t, poses, v0, f0);
     model.mass_times(v0, mv);
@@ -268,8 +269,8 @@ pub fn velocity_step(
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    // the joints' rows of the last Newton iterate, eliminated
-    let mut elimination: Option<Elimination> = None;
+    // the joints' rows of the last Newton iterate, eliminated (once `eliminated`)
+    let mut eliminated = false;
     let mut q_joint = DVector::zeros(0);
 
     let mut v = v0.clone();
@@ -294,7 +295,7 @@ pub fn velocity_step(
         resid.axpy(-h * (1.0 - theta), &*f0, 1.0);
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
-            let res = match &elimination {
+            let res = match eliminated.then_some(&*elimination) {
                 Some(e) => {
                     let reactions = &*resid - e.reactions(&q_joint);
                     newton_residual(&reactions, &gblocks, &r, mask)
@@ -341,11 +342,12 @@ pub fn velocity_step(
             }
         }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
-        elimination = joints.map(|rows_at| {
+        if let Some(rows_at) = joints {
             let mid = mid.as_ref().expect("midpoint poses with joints");
-            Elimination::new(w, rows_at(t + 0.5 * h, mid), rows_at(t + h, poses1), mask)
-        });
-        let (constrained, q_free) = match &elimination {
+            elimination.assemble(w, rows_at, (t + 0.5 * h, mid), (t + h, poses1), mask);
+            eliminated = true;
+        }
+        let (constrained, q_free) = match eliminated.then_some(&mut *elimination) {
             Some(e) => {
                 let q_free = e.impulses(v_free);
                 let mut constrained = v_free.clone();
@@ -368,7 +370,7 @@ pub fn velocity_step(
         } = loop {
             let problem = contact_problem(
                 w,
-                &elimination,
+                eliminated.then_some(&*elimination),
                 &gblocks,
                 hblocks.as_deref(),
                 v_free_c,
@@ -452,6 +454,7 @@ struct Scratch {
     v_free: DVector<f64>,
     poses1: Vec<Pose>,
     w: IterationMatrix,
+    elimination: Elimination,
 }
 
 impl Scratch {
@@ -514,7 +517,7 @@ struct ContactProblem {
 /// `hblocks`, or `gblocks` where the rows are the same.
 fn contact_problem(
     w: &IterationMatrix,
-    elimination: &Option<Elimination>,
+    elimination: Option<&Elimination>,
     gblocks: &[ContactBlocks],
     hblocks: Option<&[ContactBlocks]>,
     v_free: &DVector<f64>,
@@ -590,8 +593,8 @@ mod tests {
 
     /// A step reads nothing that an earlier one left in its scratch: the same run ends in
     /// the same state on a fresh thread and on one whose scratch vectors were first filled
-    /// with NaN, and whose iteration matrix was assembled at NaN velocities, which any read
-    /// before a write would spread. The ball bounces (a contact under Moreau–Jean); the
+    /// with NaN, and whose iteration matrix (and the joints' elimination with it) was
+    /// assembled at NaN velocities, which any read before a write would spread. The ball bounces (a contact under Moreau–Jean); the
     /// four-bar's joints are eliminated and projected.
     #[test]
     fn a_step_reads_nothing_an_earlier_one_left_in_its_scratch() {
@@ -603,6 +606,16 @@ mod tests {
             let mut sim = Scene::load(&path).unwrap().simulation().unwrap();
             if poison {
                 let nan = || DVector::from_element(sim.state.v.len(), f64::NAN);
+                let mask = sim.model.dof_mask();
+                let poses = &sim.state.poses;
+                let mut w = IterationMatrix::default();
+                w.assemble(&sim.model, &mask, 0.0, poses, &nan(), 1e-3, 0.5, 0.0);
+                // the joints' elimination formed with that matrix
+                let mut elimination = Elimination::default();
+                let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {
+                    sim.model.joint_rows_into(t, poses, out)
+                };
+                elimination.assemble(&w, &rows_at, (0.0, poses), (0.0, poses), &mask);
                 SCRATCH.set(Some(Box::new(Scratch {
                     f0: nan(),
                     mv: nan(),
@@ -610,22 +623,9 @@ mod tests {
                     resid: nan(),
                     dv: nan(),
                     v_free: nan(),
-                    poses1: sim.state.poses.clone(),
-                    w: {
-                        let mut w = IterationMatrix::default();
-                        let mask = sim.model.dof_mask();
-                        w.assemble(
-                            &sim.model,
-                            &mask,
-                            0.0,
-                            &sim.state.poses,
-                            &nan(),
-                            1e-3,
-                            0.5,
-                            0.0,
-                        );
-                        w
-                    },
+                    poses1: poses.clone(),
+                    w,
+                    elimination,
                 })));
             }
             sim.run_until(duration, |_, _| {}).unwrap();

@@ -28,6 +28,35 @@ pub struct ProjectionOutcome {
     pub violation_before: f64,
     pub violation_after: f64,
     pub converged: bool,
+    /// The joints' violations at the poses the projection left, which the run's
+    /// statistics take there too.
+    pub joint_violation: Option<JointViolation>,
+}
+
+/// The largest violations of the joints' rows at some time and poses: in length and in
+/// angle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointViolation {
+    pub t: f64,
+    pub length: f64,
+    pub angle: f64,
+}
+
+impl JointViolation {
+    /// Of the rows `rows` (the joints' at time `t`).
+    pub fn of(t: f64, rows: &[BilateralRow]) -> Self {
+        let mut v = JointViolation {
+            t,
+            ..Default::default()
+        };
+        for r in rows {
+            match r.unit {
+                RowUnit::Length => v.length = v.length.max(r.value.abs()),
+                RowUnit::Angle => v.angle = v.angle.max(r.value.abs()),
+            }
+        }
+        v
+    }
 }
 
 /// How much farther than the start of the step a projection may land from the trial
@@ -320,6 +349,7 @@ pub fn project(
     for it in 0..=max_iterations {
         out.iterations = it;
         out.violation_after = current.max;
+        out.joint_violation = Some(JointViolation::of(t, &current.rows[..current.njoint]));
         if current.max <= tolerance {
             out.converged = true;
             return out;

@@ -47,10 +47,10 @@ pub fn inverse_mass_times_rows(
     out
 }
 
-/// The rows with the held degrees of freedom (`mask` false) zeroed in their blocks: what
-/// the dense matrix of the rows holds.
-pub fn masked(mut rows: Vec<BilateralRow>, mask: &[bool]) -> Vec<BilateralRow> {
-    for row in &mut rows {
+/// Zeroes the held degrees of freedom (`mask` false) in the rows' blocks: what the dense
+/// matrix of the rows holds.
+pub fn mask(rows: &mut [BilateralRow], mask: &[bool]) {
+    for row in rows {
         for (b, g) in row.a.iter_mut().chain(row.b.iter_mut()) {
             for (j, x) in g.iter_mut().enumerate() {
                 if !mask[6 * *b + j] {
@@ -59,7 +59,6 @@ pub fn masked(mut rows: Vec<BilateralRow>, mask: &[bool]) -> Vec<BilateralRow> {
             }
         }
     }
-    rows
 }
 
 /// g · x for a row's block and the six entries of a body.
@@ -67,16 +66,11 @@ fn dot6(g: &RowVector6<f64>, x: &[f64]) -> f64 {
     g.iter().zip(x).fold(0.0, |s, (g, x)| s + g * x)
 }
 
-/// R v, for v with an entry per degree of freedom.
-pub fn times_vector(rows: &[BilateralRow], v: &[f64]) -> DVector<f64> {
-    DVector::from_iterator(
-        rows.len(),
-        rows.iter().map(|row| {
-            blocks(row)
-                .map(|(b, g)| dot6(g, &v[6 * b..6 * b + 6]))
-                .sum::<f64>()
-        }),
-    )
+/// The row times v, for v with an entry per degree of freedom.
+pub fn dot(row: &BilateralRow, v: &[f64]) -> f64 {
+    blocks(row)
+        .map(|(b, g)| dot6(g, &v[6 * b..6 * b + 6]))
+        .sum::<f64>()
 }
 
 /// Rᵀ λ, with an entry per degree of freedom (`ndof`).
@@ -112,9 +106,11 @@ mod tests {
         mask[6 + 4] = false;
         let rows = vec![row(Some(0), Some(1), 1.5), row(None, Some(2), -0.7)];
         let (dense, _) = matrix(&rows, &mask, ndof);
-        let rows = masked(rows, &mask);
+        let mut rows = rows;
+        super::mask(&mut rows, &mask);
         let v = DVector::from_fn(ndof, |i, _| (i as f64 * 0.37).sin());
-        assert!((times_vector(&rows, v.as_slice()) - &dense * &v).amax() < 1e-14);
+        let rv = DVector::from_iterator(2, rows.iter().map(|r| dot(r, v.as_slice())));
+        assert!((rv - &dense * &v).amax() < 1e-14);
         let lambda = DVector::from_vec(vec![0.3, -2.0]);
         assert!((transposed_times(&rows, &lambda, ndof) - dense.tr_mul(&lambda)).amax() < 1e-14);
         // held degrees of freedom are zero in M⁻¹, which masks them

@@ -4,15 +4,17 @@
 //! activation loop is in `activation.rs`, the splitting of a step at an impact in
 //! `impact.rs`.
 
-use super::moreau_jean::{advance_poses, velocity_step, ActiveAt, StepStart, VelocityStep};
+use super::moreau_jean::{
+    advance_poses, velocity_step, ActiveAt, JointRowsAt, StepStart, VelocityStep,
+};
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
 use super::projection::{
-    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, ProjectionOutcome,
-    ADMISSIBLE_DEPTH, PROJECTION_REACH,
+    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, JointViolation,
+    ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
 };
 use super::schedule::Schedule;
-use crate::mechanics::joint::{BilateralRow, RowUnit};
+use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::SolverStatus;
@@ -202,14 +204,20 @@ impl Simulation {
             state,
             stats: RunStats::default(),
         };
-        sim.update_geometry(None);
+        sim.update_geometry(None, None);
         Ok(sim)
     }
 
-    /// Contact points, penetration and joint violations at the current poses; `points`, when
-    /// given, are the contact points already evaluated there (the combined scheme's
-    /// activation test evaluates them at the end-of-step poses).
-    pub(super) fn update_geometry(&mut self, points: Option<Vec<ContactPoint>>) {
+    /// Contact points, penetration and joint violations at the current poses; `points` and
+    /// `joints`, when given, are the contact points and the joints' violations already
+    /// evaluated there (the combined scheme's activation test evaluates the points at the
+    /// end-of-step poses, and a projection the joints where it leaves them; violations of
+    /// another time are evaluated again).
+    pub(super) fn update_geometry(
+        &mut self,
+        points: Option<Vec<ContactPoint>>,
+        joints: Option<JointViolation>,
+    ) {
         match points {
             Some(points) => self.points = points,
             None => {
@@ -221,17 +229,13 @@ impl Simulation {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
         if !self.model.joints.is_empty() {
-            for r in self.model.joint_rows(self.state.t, &self.state.poses) {
-                let s = &mut self.stats;
-                match r.unit {
-                    RowUnit::Length => {
-                        s.max_joint_violation = s.max_joint_violation.max(r.value.abs())
-                    }
-                    RowUnit::Angle => {
-                        s.max_joint_angle_violation = s.max_joint_angle_violation.max(r.value.abs())
-                    }
-                }
-            }
+            let t = self.state.t;
+            let v = joints.filter(|v| v.t == t).unwrap_or_else(|| {
+                JointViolation::of(t, &self.model.joint_rows(t, &self.state.poses))
+            });
+            let s = &mut self.stats;
+            s.max_joint_violation = s.max_joint_violation.max(v.length);
+            s.max_joint_angle_violation = s.max_joint_angle_violation.max(v.angle);
         }
     }
 
@@ -344,9 +348,10 @@ impl Simulation {
     /// The velocity step with exactly the contacts `active`.
     fn velocity_of(&self, active: &[usize]) -> VelocityStep {
         let joints = &self.model.joints;
-        let rows_at = |t: f64, poses: &[Pose]| self.model.joint_rows(t, poses);
-        let rows_at =
-            (!joints.is_empty()).then_some(&rows_at as &dyn Fn(f64, &[Pose]) -> Vec<BilateralRow>);
+        let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {
+            self.model.joint_rows_into(t, poses, out)
+        };
+        let rows_at = (!joints.is_empty()).then_some(&rows_at as JointRowsAt);
         let params = self.step_params();
         let start = StepStart {
             model: &self.model,
@@ -618,7 +623,7 @@ impl Simulation {
         self.joint_impulses = vs.joint_impulses;
         self.active = active;
         self.state = State { t, poses, v: vs.v };
-        self.update_geometry(points);
+        self.update_geometry(points, report.projection.joint_violation);
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;

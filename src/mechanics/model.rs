@@ -76,10 +76,15 @@ impl Model {
     /// once: a step asks for them several times).
     pub fn joint_rows(&self, t: f64, poses: &[Pose]) -> Vec<BilateralRow> {
         let mut rows = Vec::with_capacity(self.joints.iter().map(Joint::row_count).sum());
-        for j in &self.joints {
-            j.rows(t, poses, &mut rows);
-        }
+        self.joint_rows_into(t, poses, &mut rows);
         rows
+    }
+
+    /// `joint_rows` appended to `out`.
+    pub fn joint_rows_into(&self, t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>) {
+        for j in &self.joints {
+            j.rows(t, poses, out);
+        }
     }
 
     /// Per-dof flag: integrated (true) or held fixed (false).

@@ -9,13 +9,15 @@
 use nalgebra::{DMatrix, DVector};
 
 /// The factors L U = P A of a square matrix, stored in place (column-major).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Lu {
     n: usize,
     /// L below the diagonal (unit diagonal implied), U on and above it, column-major.
     lu: Vec<f64>,
     /// The row swaps, in the order they were made.
     swaps: Vec<(usize, usize)>,
+    /// Scratch of the factorisation: the rows under the pivot with a nonzero multiplier.
+    nonzero: Vec<usize>,
 }
 
 impl Lu {
@@ -23,10 +25,39 @@ impl Lu {
     /// nalgebra does; `solve` then reports the matrix singular.
     pub fn new(a: DMatrix<f64>) -> Self {
         assert!(a.is_square(), "LU of a non-square matrix");
+        let mut factors = Lu {
+            n: a.nrows(),
+            lu: a.data.into(),
+            ..Default::default()
+        };
+        factors.factorise();
+        factors
+    }
+
+    /// Factorises `a` with `shift` added to its diagonal in place of the factors held,
+    /// reusing their storage (a caller that factorises at every step allocates once).
+    pub fn refactor(&mut self, a: &DMatrix<f64>, shift: f64) {
+        assert!(a.is_square(), "LU of a non-square matrix");
         let n = a.nrows();
-        let mut lu: Vec<f64> = a.data.into();
-        let mut swaps = Vec::new();
-        let mut rows: Vec<usize> = Vec::with_capacity(n);
+        self.n = n;
+        self.lu.clear();
+        self.lu.extend_from_slice(a.as_slice());
+        for i in 0..n {
+            self.lu[i * n + i] += shift;
+        }
+        self.factorise();
+    }
+
+    /// Overwrites the matrix held in `lu` with its factors.
+    fn factorise(&mut self) {
+        let n = self.n;
+        let Lu {
+            lu,
+            swaps,
+            nonzero: rows,
+            ..
+        } = self;
+        swaps.clear();
         for i in 0..n {
             let column = &lu[i * n..(i + 1) * n];
             let mut piv = i;
@@ -72,13 +103,12 @@ impl Lu {
                         *y += -p * x;
                     }
                 } else {
-                    for &r in &rows {
+                    for &r in rows.iter() {
                         below[r] += -p * coeffs[r];
                     }
                 }
             }
         }
-        Lu { n, lu, swaps }
     }
 
     /// The nonzero entries of the factors L and U (L's unit diagonal not counted): what a

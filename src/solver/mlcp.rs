@@ -19,20 +19,44 @@ pub struct EqualitySolver {
     lu: Lu,
 }
 
+impl Default for EqualitySolver {
+    fn default() -> Self {
+        EqualitySolver {
+            a: DMatrix::zeros(0, 0),
+            lu: Lu::default(),
+        }
+    }
+}
+
 impl EqualitySolver {
     pub fn new(a: DMatrix<f64>) -> Self {
+        let mut solver = EqualitySolver {
+            a,
+            lu: Lu::default(),
+        };
+        solver.factorise();
+        solver
+    }
+
+    /// The n × n matrix A, zeroed, to be formed in place and then factorised with
+    /// `factorise` (its storage, and that of the factors, kept from one system to the next).
+    pub fn zeroed(&mut self, n: usize) -> &mut DMatrix<f64> {
+        if self.a.shape() == (n, n) {
+            self.a.fill(0.0);
+        } else {
+            self.a = DMatrix::zeros(n, n);
+        }
+        &mut self.a
+    }
+
+    /// Factorises A, regularised.
+    pub fn factorise(&mut self) {
+        let a = &self.a;
         let scale = (0..a.nrows())
             .map(|i| a[(i, i)])
             .fold(0.0, f64::max)
             .max(f64::MIN_POSITIVE);
-        let mut reg = a.clone();
-        for i in 0..reg.nrows() {
-            reg[(i, i)] += REGULARISATION * scale;
-        }
-        EqualitySolver {
-            a,
-            lu: Lu::new(reg),
-        }
+        self.lu.refactor(a, REGULARISATION * scale);
     }
 
     /// A solution of A z = rhs (exact for consistent systems); NaN if the regularised

@@ -325,11 +325,9 @@ impl Joint {
                 .copy_from(&(-c.transpose() * ra));
             row(ga, gb, x.dot(&y), 0.0, RowUnit::Angle)
         };
-        let axis = pa.dir(&self.axis_a);
-        let p1 = pa.dir(&self.perp_a[0]);
-        let p2 = pa.dir(&self.perp_a[1]);
-        let axis_b = pb.dir(&self.axis_b);
-        let ref_b = pb.dir(&self.ref_b);
+        // the directions each kind needs, turned into the world only where it needs them
+        let p1 = || pa.dir(&self.perp_a[0]);
+        let p2 = || pa.dir(&self.perp_a[1]);
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
@@ -337,20 +335,16 @@ impl Joint {
                 }
             }
             JointKind::Prismatic => {
-                out.push(translation(p1, true));
-                out.push(translation(p2, true));
+                out.push(translation(p1(), true));
+                out.push(translation(p2(), true));
             }
         }
-        match self.kind {
-            JointKind::Spherical => {}
-            JointKind::Revolute => {
-                out.push(angular(p1, axis_b));
-                out.push(angular(p2, axis_b));
-            }
-            JointKind::Fixed | JointKind::Prismatic => {
-                out.push(angular(p1, axis_b));
-                out.push(angular(p2, axis_b));
-                out.push(angular(p2, ref_b));
+        if self.kind != JointKind::Spherical {
+            let (p1, p2, axis_b) = (p1(), p2(), pb.dir(&self.axis_b));
+            out.push(angular(p1, axis_b));
+            out.push(angular(p2, axis_b));
+            if matches!(self.kind, JointKind::Fixed | JointKind::Prismatic) {
+                out.push(angular(p2, pb.dir(&self.ref_b)));
             }
         }
         if let Some(Drive::Position(profile)) = &self.drive {
@@ -358,7 +352,7 @@ impl Joint {
             let rate = profile.rate(t);
             match self.kind {
                 JointKind::Prismatic => {
-                    let mut r = translation(axis, true);
+                    let mut r = translation(pa.dir(&self.axis_a), true);
                     r.value -= target;
                     r.rate = rate;
                     out.push(r);
