@@ -631,7 +631,7 @@ fn ring_contact_lateral_curvature_matches_the_exact_gap() {
 /// table: 689 failed projections and 0.85 µm of penetration in 1 s).
 #[test]
 fn a_journal_pinched_between_its_rings_projects_without_swinging_the_bar() {
-    use mc_study::integrator::projection::{inverse_mass, project, ContactRows};
+    use mc_study::integrator::projection::{inverse_mass, project, ContactRows, ContactRowsOf};
     use mc_study::mechanics::Pose;
     let mut scene = bundled("pendulum-clearance");
     let c = 1e-6;
@@ -668,13 +668,15 @@ fn a_journal_pinched_between_its_rings_projects_without_swinging_the_bar() {
     }
     let mask = model.dof_mask();
     let minv = inverse_mass(&model, &mask);
+    let ring_rows =
+        |ps: &[Pose], rows: &mut ContactRowsOf| rings(ps).iter().for_each(|cp| rows.add(cp));
     let outcome = project(
         &model,
         &mask,
         &minv,
         0.0,
         &mut poses,
-        &rings,
+        &ring_rows,
         ContactRows::Equality,
         1e-10,
         20,

@@ -210,7 +210,7 @@ pub fn assemble(
             &minv,
             0.0,
             &mut poses,
-            &|_| Vec::new(),
+            &|_, _| {},
             ContactRows::Equality,
             TOLERANCE,
             ITERATIONS,

@@ -44,6 +44,27 @@ pub struct ActiveAt<'a> {
     pub at: ContactsAt<'a>,
 }
 
+/// A contact of the velocity problem: its point, with the friction and restitution
+/// coefficients it has in this step (a settling step may take its friction away, a
+/// projecting scheme the restitution of a closed contact).
+#[derive(Clone, Copy, Debug)]
+pub struct ActiveContact<'a> {
+    pub point: &'a ContactPoint,
+    pub mu: f64,
+    pub e: f64,
+}
+
+impl<'a> ActiveContact<'a> {
+    /// The point with its own coefficients.
+    pub fn of(point: &'a ContactPoint) -> Self {
+        ActiveContact {
+            point,
+            mu: point.mu,
+            e: point.e,
+        }
+    }
+}
+
 /// Result of the velocity step.
 #[derive(Clone, Debug)]
 pub struct VelocityStep {
@@ -190,7 +211,7 @@ pub struct StepStart<'a> {
 /// from W⁻¹ only for the contacts on bodies coupled to the joints.
 pub fn velocity_step(
     start: &StepStart,
-    active: &[&ContactPoint],
+    active: &[ActiveContact],
     warm: &[Vector3<f64>],
     contacts: Option<&ActiveAt>,
     joints: Option<JointRowsAt>,
@@ -229,7 +250,12 @@ pub fn velocity_step(
     // persistent contacts whose normal turns
     let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
     let turning = persistent.filter(|c| !c.turning.is_empty());
-    let start_blocks = || -> Vec<_> { active.iter().map(|c| contact_blocks(c, mask)).collect() };
+    let start_blocks = || -> Vec<_> {
+        active
+            .iter()
+            .map(|c| contact_blocks(c.point, mask))
+            .collect()
+    };
     let mut gblocks = start_blocks();
     let mut hblocks: Option<Vec<_>> = None;
     let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
@@ -241,7 +267,11 @@ pub fn velocity_step(
     // ring and 181 N·s on a guard where the step needed 0.01, and 3.3 J of 4.9 gone
     // in 1 s from a pendulum on a 1 µm clearance at μ = 0.1 and h = 1e-3, which loses
     // 0.025–0.026 J at any step from 1e-5 to 1e-3 with these start rows.
-    let guarded = |c: &ContactPoint| active.iter().any(|g| g.gap_law && g.bodies() == c.bodies());
+    let guarded = |c: &ContactPoint| {
+        active
+            .iter()
+            .any(|g| g.point.gap_law && g.point.bodies() == c.bodies())
+    };
     // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
     // keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
     // never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
@@ -255,9 +285,9 @@ pub fn velocity_step(
         .iter()
         .enumerate()
         .map(|(k, c)| {
-            let u0 = c.local_velocity(v0.as_slice()).x;
-            if c.gap_law && h > 0.0 {
-                ((c.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+            let u0 = c.point.local_velocity(v0.as_slice()).x;
+            if c.point.gap_law && h > 0.0 {
+                ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
             } else if is_persistent(k) {
                 0.0
             } else {
@@ -326,16 +356,16 @@ pub fn velocity_step(
                 // a normal that does not turn over the step keeps the start rows (and the
                 // Delassus matrix symmetric, which the solver's sweeps need to converge
                 // fast), and so do one that swings (`SWUNG`) and one thrown with a guard
-                let n0 = active[a].frame.row(0);
+                let n0 = active[a].point.frame.row(0);
                 let turn = (at_mid[k].frame.row(0) - n0)
                     .norm()
                     .max((at_end[k].frame.row(0) - n0).norm());
-                let swung = params.scheme.projects() && (turn > SWUNG || guarded(active[a]));
+                let swung = params.scheme.projects() && (turn > SWUNG || guarded(active[a].point));
                 if turn <= NORMAL_TURN || swung {
                     continue;
                 }
                 // the impulse and the velocity on the tangents of the start, carried over
-                let frame = &active[a].frame;
+                let frame = &active[a].point.frame;
                 hblocks.get_or_insert_with(|| gblocks.clone())[a] =
                     contact_blocks(&at_end[k].with_tangents_of(frame), mask);
                 gblocks[a] = contact_blocks(&at_mid[k].with_tangents_of(frame), mask);

@@ -124,6 +124,34 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
         .collect()
 }
 
+/// The contacts to project at some poses: `contacts(poses, rows)` evaluates them there and
+/// hands each to `ContactRowsOf::add`, which appends its rows (no list of points is made).
+pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &mut ContactRowsOf);
+
+/// The rows of the contacts projected, after the joints': the normal rows, and those whose
+/// gap curves sharply across its normal.
+pub struct ContactRowsOf {
+    rows: Vec<BilateralRow>,
+    /// (row index, the lateral displacement as a row, κ).
+    curved: Vec<(usize, BilateralRow, f64)>,
+}
+
+impl ContactRowsOf {
+    /// Room for `n` more contacts.
+    pub fn reserve(&mut self, n: usize) {
+        self.rows.reserve(n);
+    }
+
+    /// Appends the rows of the contact point `cp`.
+    pub fn add(&mut self, cp: &ContactPoint) {
+        if let Some(l) = cp.lateral {
+            self.curved
+                .push((self.rows.len(), contact_row(cp, l.g1, l.g2, 0.0), l.kappa));
+        }
+        self.rows.push(contact_normal_row(cp));
+    }
+}
+
 /// Rows and violations of the constraints at `poses`: the joint rows, then the contacts'.
 struct Evaluated {
     rows: Vec<BilateralRow>,
@@ -140,20 +168,16 @@ fn evaluate_rows(
     model: &Model,
     t: f64,
     poses: &[Pose],
-    contact_points: &dyn Fn(&[Pose]) -> Vec<ContactPoint>,
+    contacts: ContactsAt,
     mode: ContactRows,
 ) -> Evaluated {
-    let mut rows = model.joint_rows(t, poses);
-    let njoint = rows.len();
-    let mut curved = Vec::new();
-    let points = contact_points(poses);
-    rows.reserve(points.len());
-    for cp in points {
-        if let Some(l) = cp.lateral {
-            curved.push((rows.len(), contact_row(&cp, l.g1, l.g2, 0.0), l.kappa));
-        }
-        rows.push(contact_normal_row(&cp));
-    }
+    let mut of = ContactRowsOf {
+        rows: model.joint_rows(t, poses),
+        curved: Vec::new(),
+    };
+    let njoint = of.rows.len();
+    contacts(poses, &mut of);
+    let ContactRowsOf { rows, curved } = of;
     let (mut max, mut squares) = (0.0f64, 0.0);
     for (k, r) in rows.iter().enumerate() {
         let v = if k >= njoint && mode == ContactRows::Inequality {
@@ -309,8 +333,8 @@ impl<'a> Linearised<'a> {
 /// Step halvings tried before an iteration gives up.
 const MAX_HALVINGS: usize = 8;
 
-/// Projects `poses` at time `t`. `contact_points(poses)` returns the contacts to project,
-/// evaluated at the given poses.
+/// Projects `poses` at time `t` onto the joints and the contacts `contacts` gives at the
+/// poses it is given.
 ///
 /// Damped Gauss–Newton: the full step, else the half step, is kept where it at least
 /// halves the squared violation. Else, where a contact's gap bends sharply across its
@@ -334,13 +358,13 @@ pub fn project(
     minv: &[Matrix6<f64>],
     t: f64,
     poses: &mut [Pose],
-    contact_points: &dyn Fn(&[Pose]) -> Vec<ContactPoint>,
+    contacts: ContactsAt,
     mode: ContactRows,
     tolerance: f64,
     max_iterations: usize,
 ) -> ProjectionOutcome {
     let ndof = 6 * model.bodies.len();
-    let mut current = evaluate_rows(model, t, poses, contact_points, mode);
+    let mut current = evaluate_rows(model, t, poses, contacts, mode);
     let mut out = ProjectionOutcome {
         violation_before: current.max,
         violation_after: current.max,
@@ -378,7 +402,7 @@ pub fn project(
                     }
                 })
                 .collect();
-            let e = evaluate_rows(model, t, &trial, contact_points, mode);
+            let e = evaluate_rows(model, t, &trial, contacts, mode);
             (e.squares < current.squares).then_some((e, trial))
         };
         // a step that at least halves the squared violation (the linear model promises it

@@ -5,13 +5,13 @@
 //! `impact.rs`.
 
 use super::moreau_jean::{
-    advance_poses, velocity_step, ActiveAt, JointRowsAt, StepStart, VelocityStep,
+    advance_poses, velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
 use super::projection::{
-    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, JointViolation,
-    ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
+    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, ContactRowsOf,
+    JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
 };
 use super::schedule::Schedule;
 use crate::mechanics::joint::BilateralRow;
@@ -365,9 +365,9 @@ impl Simulation {
         if active.is_empty() {
             return velocity_step(&start, &[], &[], None, rows_at);
         }
-        // The contacts enter as copies: while settling, those that lose their friction with
-        // μ = 0; and, where positions are projected, those closed in the last step and
-        // approaching with e = 0. A closed contact (pressed, or in the last velocity problem
+        // The contacts enter with their coefficients, but while settling those that lose
+        // their friction with μ = 0; and, where positions are projected, those closed in the
+        // last step and approaching with e = 0. A closed contact (pressed, or in the last velocity problem
         // and still touching, as the unloaded twin of a pressed ring is) has no impact to
         // restitute: what its start-of-step rows show as approach is the turn of its frame
         // over the last step (a journal sliding around its bore). Restitution on it pushed
@@ -382,20 +382,20 @@ impl Simulation {
                     || (self.active.contains(&i)
                         && self.points[i].gap() <= self.params.activation_margin))
         };
-        let points: Vec<ContactPoint> = active
+        let contacts: Vec<ActiveContact> = active
             .iter()
             .map(|&i| {
-                let mut c = self.points[i];
+                let mut c = ActiveContact::of(&self.points[i]);
                 if settling && self.settle_frictionless[i] {
                     c.mu = 0.0;
                 }
-                if projected && closed(i) && c.local_velocity(self.state.v.as_slice()).x < 0.0 {
+                if projected && closed(i) && c.point.local_velocity(self.state.v.as_slice()).x < 0.0
+                {
                     c.e = 0.0;
                 }
                 c
             })
             .collect();
-        let refs: Vec<&ContactPoint> = points.iter().collect();
         // The closed contacts also act along their rows at mid-step and meet their velocity
         // condition along those at the step's end (`ActiveAt`). On start-of-step rows a
         // journal sliding around its bore drifts into the wall. Without a projection nothing
@@ -405,7 +405,7 @@ impl Simulation {
         // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
         // h = 20 µs (2e-4 with them).
         let persistent: Vec<usize> = (0..active.len())
-            .filter(|&k| closed(active[k]) && !points[k].gap_law)
+            .filter(|&k| closed(active[k]) && !self.points[active[k]].gap_law)
             .collect();
         let turning = persistent
             .iter()
@@ -423,11 +423,11 @@ impl Simulation {
             let mut out = Vec::with_capacity(which.len());
             self.model.evaluate_selected(poses, &candidates, &mut out);
             for (c, &k) in out.iter_mut().zip(which) {
-                c.mu = points[k].mu;
+                c.mu = contacts[k].mu;
             }
             out
         };
-        let contacts = ActiveAt {
+        let active_at = ActiveAt {
             persistent,
             turning,
             at: &at,
@@ -444,7 +444,7 @@ impl Simulation {
                 }
             })
             .collect();
-        velocity_step(&start, &refs, &warm, Some(&contacts), rows_at)
+        velocity_step(&start, &contacts, &warm, Some(&active_at), rows_at)
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
@@ -470,17 +470,18 @@ impl Simulation {
         let candidates: Vec<Candidate> = pool.iter().map(|&i| self.candidates[i]).collect();
         // the poses last evaluated and the pool's points there
         let last = RefCell::new((Vec::new(), Vec::new()));
-        let points = |ps: &[Pose]| -> Vec<ContactPoint> {
+        let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
             let (at, pts) = &mut *last;
             at.clear();
             at.extend_from_slice(ps);
             model.evaluate_selected(ps, &candidates, pts);
-            pool.iter()
-                .zip(pts.iter())
-                .filter(|(&i, cp)| which(i, cp))
-                .map(|(_, cp)| *cp)
-                .collect()
+            rows.reserve(pts.len());
+            for (&i, cp) in pool.iter().zip(pts.iter()) {
+                if which(i, cp) {
+                    rows.add(cp);
+                }
+            }
         };
         let trial = poses.to_vec();
         let mut outcome = project(
@@ -489,7 +490,7 @@ impl Simulation {
             &self.minv,
             self.state.t + self.h,
             poses,
-            &points,
+            &contacts,
             mode,
             self.params.projection_tolerance,
             self.params.projection_max_iterations,
