@@ -107,7 +107,7 @@ impl Simulation {
             // stops as the projection left them)
             let known = |k: usize| {
                 let points = pool_points.as_ref()?;
-                pool.binary_search(&k).ok().map(|j| points[j])
+                pool.binary_search(&k).ok().map(|j| &points[j])
             };
             let mut after = Vec::new();
             self.model

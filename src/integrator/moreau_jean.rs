@@ -171,10 +171,9 @@ fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
         blocks: [(0, Matrix3x6::zeros()); 2],
         len: 0,
     };
-    let (g1, g2) = c.blocks();
-    for (body, g) in [(c.body1, g1), (c.body2, g2)] {
+    for (side, body) in [c.body1, c.body2].into_iter().enumerate() {
         if let Some(b) = body.filter(|&b| moving(b)) {
-            out.blocks[out.len] = (b, g);
+            out.blocks[out.len] = (b, c.block(side));
             out.len += 1;
         }
     }

@@ -209,11 +209,11 @@ impl Model {
     /// `evaluate_selected`, taking the points of contact pairs and joint stops that
     /// `known(k)` gives for the k-th selected candidate (evaluated at the same poses)
     /// instead of evaluating them again.
-    pub fn evaluate_selected_knowing(
+    pub fn evaluate_selected_knowing<'a>(
         &self,
         poses: &[Pose],
         selected: &[Candidate],
-        known: impl Fn(usize) -> Option<ContactPoint>,
+        known: impl Fn(usize) -> Option<&'a ContactPoint>,
         out: &mut Vec<ContactPoint>,
     ) {
         out.clear();
@@ -223,11 +223,14 @@ impl Model {
             let k = selected.len() - rest.len();
             rest = tail;
             match first {
-                Candidate::Pair { pair, point } => {
-                    out.push(known(k).unwrap_or_else(|| self.contacts[pair].evaluate(point, poses)))
-                }
-                Candidate::Limit { joint, upper } => out
-                    .push(known(k).unwrap_or_else(|| self.joints[joint].limit_point(upper, poses))),
+                Candidate::Pair { pair, point } => out.push(match known(k) {
+                    Some(p) => *p,
+                    None => self.contacts[pair].evaluate(point, poses),
+                }),
+                Candidate::Limit { joint, upper } => out.push(match known(k) {
+                    Some(p) => *p,
+                    None => self.joints[joint].limit_point(upper, poses),
+                }),
                 Candidate::Clearance { joint, point } => {
                     // this joint's run of points, placed once
                     let same = |c: &Candidate| match *c {

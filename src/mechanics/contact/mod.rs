@@ -353,26 +353,25 @@ impl ContactPoint {
     /// The Jacobian blocks G₁, G₂ (3×6, rows n, t1, t2): the local relative velocity is
     /// G₁ v₁ + G₂ v₂ for the twists v₁, v₂ of bodies 1 and 2.
     pub fn blocks(&self) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+        (self.block(0), self.block(1))
+    }
+
+    /// G₁ (`side` 0) or G₂ (`side` 1) alone: a velocity step forms only the blocks of the
+    /// bodies that move.
+    pub fn block(&self, side: usize) -> Matrix3x6<f64> {
+        let mut g = Matrix3x6::zeros();
         match &self.jacobian {
             Jacobian::Lever { rotation, arm } => {
-                let block = |k: usize| {
-                    let mut g = Matrix3x6::zeros();
-                    g.fixed_columns_mut::<3>(0).copy_from(&self.frame);
-                    g.fixed_columns_mut::<3>(3)
-                        .copy_from(&(self.frame * lever_of(&arm[k], &rotation[k])));
-                    g
-                };
-                (block(0), -block(1))
+                g.fixed_columns_mut::<3>(0).copy_from(&self.frame);
+                g.fixed_columns_mut::<3>(3)
+                    .copy_from(&(self.frame * lever_of(&arm[side], &rotation[side])));
+                if side == 1 {
+                    g.neg_mut();
+                }
             }
-            Jacobian::Normal { g1, g2 } => {
-                let block = |row: &RowVector6<f64>| {
-                    let mut g = Matrix3x6::zeros();
-                    g.row_mut(0).copy_from(row);
-                    g
-                };
-                (block(g1), block(g2))
-            }
+            Jacobian::Normal { g1, g2 } => g.row_mut(0).copy_from([g1, g2][side]),
         }
+        g
     }
 
     /// The normal rows of the blocks (the gap's gradient), without the tangential ones.
