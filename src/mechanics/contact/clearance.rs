@@ -184,8 +184,7 @@ impl ClearanceJoint {
             let offset = side * 0.5 * (self.bore_length + self.axial_play);
             let b1 = any_orthogonal(&self.journal_axis);
             let b2 = self.journal_axis.cross(&b1);
-            let (sin, cos) =
-                (2.0 * std::f64::consts::PI * idx as f64 / self.rim_points as f64).sin_cos();
+            let (sin, cos) = rim_turn(idx, self.rim_points);
             let local = self.journal_point
                 + self.journal_axis * offset
                 + (b1 * cos + b2 * sin) * self.flange_radius;
@@ -294,6 +293,23 @@ struct Frames {
 struct Placed {
     frames: Frames,
     rings: [(Ring, (f64, f64)); 2],
+}
+
+/// (sin, cos) of `k`/`n` of a turn: a flange's rim point k of n. Kept for the last n on
+/// each thread (a mechanism's joints share one), so that a point costs no sine and cosine.
+fn rim_turn(k: usize, n: usize) -> (f64, f64) {
+    thread_local! {
+        static TURNS: std::cell::RefCell<Vec<(f64, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    TURNS.with_borrow_mut(|turns| {
+        if turns.len() != n {
+            turns.clear();
+            turns.extend(
+                (0..n).map(|k| (2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()),
+            );
+        }
+        turns[k]
+    })
 }
 
 /// (cos, sin) of k/RING_POINTS of a turn, k = 0…RING_POINTS − 1: the guards' angles from the
