@@ -623,8 +623,9 @@ mod tests {
     /// A step reads nothing that an earlier one left in its scratch: the same run ends in
     /// the same state on a fresh thread and on one whose scratch vectors were first filled
     /// with NaN, and whose iteration matrix (and the joints' elimination with it) was
-    /// assembled at NaN velocities, which any read before a write would spread. The ball bounces (a contact under Moreau–Jean); the
-    /// four-bar's joints are eliminated and projected.
+    /// assembled at NaN velocities, which any read before a write would spread. The ball
+    /// bounces (a contact under Moreau–Jean); the four-bar's joints are eliminated and
+    /// projected.
     #[test]
     fn a_step_reads_nothing_an_earlier_one_left_in_its_scratch() {
         let run = |name: &'static str, duration: f64, poison: bool| {

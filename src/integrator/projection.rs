@@ -126,7 +126,7 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
 
 /// The contacts to project at some poses: `contacts(poses, rows)` evaluates them there and
 /// hands each to `ContactRowsOf::add`, which appends its rows (no list of points is made).
-pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &mut ContactRowsOf);
+pub type ContactRowsAt<'a> = &'a dyn Fn(&[Pose], &mut ContactRowsOf);
 
 /// The rows of the contacts projected, after the joints': the normal rows, and those whose
 /// gap curves sharply across its normal.
@@ -168,7 +168,7 @@ fn evaluate_rows(
     model: &Model,
     t: f64,
     poses: &[Pose],
-    contacts: ContactsAt,
+    contacts: ContactRowsAt,
     mode: ContactRows,
 ) -> Evaluated {
     let mut of = ContactRowsOf {
@@ -358,7 +358,7 @@ pub fn project(
     minv: &[Matrix6<f64>],
     t: f64,
     poses: &mut [Pose],
-    contacts: ContactsAt,
+    contacts: ContactRowsAt,
     mode: ContactRows,
     tolerance: f64,
     max_iterations: usize,

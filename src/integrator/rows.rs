@@ -104,9 +104,8 @@ mod tests {
         let ndof = 18;
         let mut mask = vec![true; ndof];
         mask[6 + 4] = false;
-        let rows = vec![row(Some(0), Some(1), 1.5), row(None, Some(2), -0.7)];
+        let mut rows = vec![row(Some(0), Some(1), 1.5), row(None, Some(2), -0.7)];
         let (dense, _) = matrix(&rows, &mask, ndof);
-        let mut rows = rows;
         super::mask(&mut rows, &mask);
         let v = DVector::from_fn(ndof, |i, _| (i as f64 * 0.37).sin());
         let rv = DVector::from_iterator(2, rows.iter().map(|r| dot(r, v.as_slice())));

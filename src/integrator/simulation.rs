@@ -367,13 +367,14 @@ impl Simulation {
         }
         // The contacts enter with their coefficients, but while settling those that lose
         // their friction with μ = 0; and, where positions are projected, those closed in the
-        // last step and approaching with e = 0. A closed contact (pressed, or in the last velocity problem
-        // and still touching, as the unloaded twin of a pressed ring is) has no impact to
-        // restitute: what its start-of-step rows show as approach is the turn of its frame
-        // over the last step (a journal sliding around its bore). Restitution on it pushed
-        // the journal off the wall at every step, gaining energy at coarse steps (0.08 J of
-        // 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting contact struck through
-        // another one has no approach at the step's start, so e changes nothing there.
+        // last step and approaching with e = 0. A closed contact (pressed, or in the last
+        // velocity problem and still touching, as the unloaded twin of a pressed ring is)
+        // has no impact to restitute: what its start-of-step rows show as approach is the
+        // turn of its frame over the last step (a journal sliding around its bore).
+        // Restitution on it pushed the journal off the wall at every step, gaining energy at
+        // coarse steps (0.08 J of 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting
+        // contact struck through another one has no approach at the step's start, so e
+        // changes nothing there.
         let settling = self.schedule.settling(self.state.t).is_some();
         let projected = self.params.scheme.projects();
         let closed = |i: usize| {
