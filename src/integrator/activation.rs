@@ -151,7 +151,6 @@ impl Simulation {
 #[cfg(test)]
 mod tests {
     use crate::scene::Scene;
-    use std::path::Path;
 
     /// The contact points a step leaves (the activation's, some of them handed on by the
     /// projection) are those a fresh evaluation at the step's end gives, bit for bit: on
@@ -160,11 +159,7 @@ mod tests {
     #[test]
     fn a_step_leaves_the_points_of_its_end_poses() {
         for (name, duration) in [("incline-block", 0.5), ("cam-follower", 0.05)] {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("studies")
-                .join(name)
-                .join("scene.yaml");
-            let mut sim = Scene::load(&path).unwrap().simulation().unwrap();
+            let mut sim = Scene::bundled_simulation(name);
             let candidates = sim.contact_ids().to_vec();
             let mut fresh = Vec::new();
             let mut steps = 0;
@@ -196,11 +191,7 @@ mod tests {
     fn a_step_records_the_joint_violations_of_its_end_poses() {
         use crate::integrator::projection::JointViolation;
         for (name, duration) in [("four-bar", 0.3), ("slider-crank-clearance", 0.05)] {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("studies")
-                .join(name)
-                .join("scene.yaml");
-            let mut sim = Scene::load(&path).unwrap().simulation().unwrap();
+            let mut sim = Scene::bundled_simulation(name);
             let (mut length, mut angle) = (
                 sim.stats.max_joint_violation,
                 sim.stats.max_joint_angle_violation,

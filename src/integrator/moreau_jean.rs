@@ -618,7 +618,6 @@ fn newton_residual(
 mod tests {
     use super::*;
     use crate::scene::Scene;
-    use std::path::Path;
 
     /// A step reads nothing that an earlier one left in its scratch: the same run ends in
     /// the same state on a fresh thread and on one whose scratch vectors were first filled
@@ -629,11 +628,7 @@ mod tests {
     #[test]
     fn a_step_reads_nothing_an_earlier_one_left_in_its_scratch() {
         let run = |name: &'static str, duration: f64, poison: bool| {
-            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("studies")
-                .join(name)
-                .join("scene.yaml");
-            let mut sim = Scene::load(&path).unwrap().simulation().unwrap();
+            let mut sim = Scene::bundled_simulation(name);
             if poison {
                 let nan = || DVector::from_element(sim.state.v.len(), f64::NAN);
                 let mask = sim.model.dof_mask();

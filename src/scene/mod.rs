@@ -166,6 +166,16 @@ impl Scene {
         )
     }
 
+    /// A simulation of the bundled scene `studies/<name>/scene.yaml` (for unit tests).
+    #[cfg(test)]
+    pub(crate) fn bundled_simulation(name: &str) -> Simulation {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("studies")
+            .join(name)
+            .join("scene.yaml");
+        Scene::load(&path).unwrap().simulation().unwrap()
+    }
+
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let text = crate::input_file::read(path).map_err(|e| SceneError {
             file: Some(path.display().to_string()),
