@@ -50,6 +50,35 @@ impl Default for NsgsOptions {
 
 /// Solves FC3D by NSGS. `r` holds the warm start on entry and the impulses on exit.
 pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverStatus {
+    let mut sweeps = SWEEPS.take().unwrap_or_default();
+    let status = solve_in(p, r, opts, &mut sweeps);
+    SWEEPS.set(Some(sweeps));
+    status
+}
+
+/// The sweeps' storage, kept from one solve to the next on each thread (boxed, so that
+/// taking and returning it moves a pointer). Every entry is written before it is read.
+#[derive(Default)]
+struct Sweeps {
+    /// Each contact's block of W and its inverse (for the sticking test).
+    blocks: Vec<(Matrix3<f64>, Option<Matrix3<f64>>)>,
+    coupled: Coupling,
+    /// The local velocity u = W r + q after a sweep.
+    u: DVector<f64>,
+}
+
+thread_local! {
+    static SWEEPS: std::cell::Cell<Option<Box<Sweeps>>> = const { std::cell::Cell::new(None) };
+}
+
+/// `solve_fc3d` in the storage `sweeps`.
+fn solve_in(
+    p: &Fc3d,
+    r: &mut DVector<f64>,
+    opts: &NsgsOptions,
+    sweeps: &mut Sweeps,
+) -> SolverStatus {
+    let Sweeps { blocks, coupled, u } = sweeps;
     let n = p.mu.len();
     debug_assert_eq!(r.len(), 3 * n);
     if n == 0 {
@@ -60,16 +89,15 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
         };
     }
     // each contact's block and its inverse (for the sticking test), fixed over the sweeps
-    let blocks: Vec<(Matrix3<f64>, Option<Matrix3<f64>>)> = (0..n)
-        .map(|a| {
-            let block = p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned();
-            (block, block.try_inverse())
-        })
-        .collect();
+    blocks.clear();
+    blocks.extend((0..n).map(|a| {
+        let block = p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned();
+        (block, block.try_inverse())
+    }));
     // the contacts each one is coupled to, with their (nonzero) off-diagonal blocks W_ab:
     // contacts on bodies W does not couple leave each other's blocks zero, and skipping
     // them makes a sweep over a mechanism cost what its couplings cost
-    let coupled = Coupling::of(p.w, n);
+    coupled.fill(p.w, n);
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     for sweep in 1..=opts.max_sweeps {
         for (a, (block, inverse)) in blocks.iter().enumerate() {
@@ -85,7 +113,8 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
             r[o + 1] = sol.y;
             r[o + 2] = sol.z;
         }
-        let residual = natural_map_error_at(p, r, &local_velocity(p, r, &blocks, &coupled));
+        local_velocity(p, r, blocks, coupled, u);
+        let residual = natural_map_error_at(p, r, u);
         if residual <= opts.tolerance || !residual.is_finite() {
             return SolverStatus {
                 converged: residual.is_finite(),
@@ -118,6 +147,7 @@ pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverS
 }
 
 /// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
+#[derive(Default)]
 struct Coupling {
     /// (b, W_ab) for every contact a in turn, b ascending.
     blocks: Vec<(usize, Matrix3<f64>)>,
@@ -126,9 +156,11 @@ struct Coupling {
 }
 
 impl Coupling {
-    fn of(w: &DMatrix<f64>, n: usize) -> Self {
-        let mut blocks = Vec::new();
-        let mut start = Vec::with_capacity(n + 1);
+    /// The blocks of `w`, a matrix of n × n blocks, in place of those held.
+    fn fill(&mut self, w: &DMatrix<f64>, n: usize) {
+        let Coupling { blocks, start } = self;
+        blocks.clear();
+        start.clear();
         for a in 0..n {
             start.push(blocks.len());
             for b in (0..n).filter(|&b| b != a) {
@@ -139,7 +171,6 @@ impl Coupling {
             }
         }
         start.push(blocks.len());
-        Coupling { blocks, start }
     }
 
     /// W's block pattern, as the global Newton method takes it.
@@ -157,15 +188,21 @@ impl Coupling {
     }
 }
 
-/// u = W r + q over the nonzero blocks of W only (each contact's own and `coupled`).
+/// u = W r + q over the nonzero blocks of W only (each contact's own and `coupled`), into
+/// `u`.
 fn local_velocity(
     p: &Fc3d,
     r: &DVector<f64>,
     blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
     coupled: &Coupling,
-) -> DVector<f64> {
+    u: &mut DVector<f64>,
+) {
     let rb = |b: usize| Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
-    let mut u = p.q.clone();
+    if u.len() == p.q.len() {
+        u.copy_from(p.q);
+    } else {
+        *u = p.q.clone();
+    }
     for (a, (block, _)) in blocks.iter().enumerate() {
         let mut ua = u.fixed_rows::<3>(3 * a) + block * rb(a);
         for (b, w_ab) in coupled.of_contact(a) {
@@ -173,7 +210,6 @@ fn local_velocity(
         }
         u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
     }
-    u
 }
 
 /// NSGS and the global Newton both failed: try the global Newton again from the sweeps'
@@ -359,4 +395,62 @@ fn projection_fallback(
         }
     }
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A solve reads nothing that an earlier one left in the thread's storage: two coupled
+    /// contacts, one sliding, solve to the same bits on a fresh thread and on one whose
+    /// storage holds NaN blocks and velocities of a larger problem.
+    #[test]
+    fn a_solve_reads_nothing_an_earlier_one_left() {
+        let w = DMatrix::from_fn(6, 6, |i, j| {
+            let base = if i == j { 2.0 + 0.1 * i as f64 } else { 0.0 };
+            base + if i / 3 != j / 3 && (i + j) % 2 == 0 {
+                0.3
+            } else {
+                0.0
+            }
+        });
+        let q = DVector::from_vec(vec![-1.0, 0.8, 0.1, -0.5, 0.0, 0.05]);
+        let mu = [0.3, 0.5];
+        let solve = |poison: bool| {
+            let (w, q) = (w.clone(), q.clone());
+            std::thread::spawn(move || {
+                if poison {
+                    let nan = Matrix3::from_element(f64::NAN);
+                    SWEEPS.set(Some(Box::new(Sweeps {
+                        blocks: vec![(nan, Some(nan)); 3],
+                        coupled: Coupling {
+                            blocks: vec![(1, nan), (0, nan)],
+                            start: vec![0, 1, 2, 2],
+                        },
+                        u: DVector::from_element(9, f64::NAN),
+                    })));
+                }
+                let p = Fc3d {
+                    w: &w,
+                    q: &q,
+                    mu: &mu,
+                };
+                let mut r = DVector::zeros(6);
+                let status = solve_fc3d(&p, &mut r, &NsgsOptions::default());
+                (status, natural_map_error(&p, &r), r)
+            })
+            .join()
+            .unwrap()
+        };
+        let (fresh, error, r) = solve(false);
+        assert!(fresh.converged && error <= 1e-10, "{fresh:?} {error}");
+        // the first contact slides: its friction is on the cone's boundary
+        assert!(
+            (r[1].hypot(r[2]) - mu[0] * r[0]).abs() <= 1e-9 * r[0],
+            "{r}"
+        );
+        let (poisoned, _, r2) = solve(true);
+        assert_eq!(fresh, poisoned);
+        assert_eq!(r, r2);
+    }
 }
