@@ -120,15 +120,17 @@ impl Elimination {
         &self.z[self.z_start[b]..self.z_start[b + 1]]
     }
 
-    /// The joints' impulses Q = S⁻¹(b − H v_free) that make `v_free` meet the rows.
-    pub(super) fn impulses(&mut self, v_free: &DVector<f64>) -> DVector<f64> {
+    /// The joints' impulses Q = S⁻¹(b − H v_free) that make `v_free` meet the rows, into
+    /// `q`.
+    pub(super) fn impulses_into(&mut self, v_free: &DVector<f64>, q: &mut DVector<f64>) {
         let v = v_free.as_slice();
-        let mut q = DVector::from_iterator(
-            self.h.len(),
-            self.h.iter().map(|r| r.rate - rows::dot(r, v)),
-        );
+        if q.len() != self.h.len() {
+            *q = DVector::zeros(self.h.len());
+        }
+        for (qk, r) in q.iter_mut().zip(&self.h) {
+            *qk = r.rate - rows::dot(r, v);
+        }
         self.schur.solve_in_place(q.as_mut_slice(), &mut self.work);
-        q
     }
 
     /// v + Z Q: the velocity that the joints' impulses Q give `v`.
@@ -141,9 +143,14 @@ impl Elimination {
         }
     }
 
-    /// Gᵀ Q, the generalised impulse of the joints' impulses Q.
-    pub(super) fn reactions(&self, q: &DVector<f64>) -> DVector<f64> {
-        rows::transposed_times(&self.g, q, 6 * (self.z_start.len() - 1))
+    /// R − Gᵀ Q: what of the residual `r` the joints' impulses Q do not account for, into
+    /// `out`.
+    pub(super) fn unreacted(&self, q: &DVector<f64>, r: &DVector<f64>, out: &mut DVector<f64>) {
+        if out.len() != r.len() {
+            *out = DVector::zeros(r.len());
+        }
+        rows::transposed_times_into(&self.g, q, out);
+        out.zip_apply(r, |o, ri| *o = ri - *o);
     }
 
     /// Turns a contact's response y = W⁻¹Gᵀ into the constrained one, y − Z S⁻¹ H y, and

@@ -236,8 +236,18 @@ pub fn velocity_step(
         dv,
         v_free,
         poses1,
+        mid,
         w,
         elimination,
+        q_free,
+        q_joint,
+        constrained,
+        unreacted,
+        problem,
+        mu,
+        shift,
+        r,
+        before,
     } = &mut *scratch;
     model.wrench(t, poses, v0, f0);
     model.mass_times(v0, mv);
@@ -249,15 +259,9 @@ pub fn velocity_step(
     // persistent contacts whose normal turns
     let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
     let turning = persistent.filter(|c| !c.turning.is_empty());
-    let start_blocks = || -> Vec<_> {
-        active
-            .iter()
-            .map(|c| contact_blocks(c.point, mask))
-            .collect()
-    };
-    let mut gblocks = start_blocks();
-    let mut hblocks: Option<Vec<_>> = None;
-    let mu: Vec<f64> = active.iter().map(|c| c.mu).collect();
+    problem.start_rows(active, mask);
+    mu.clear();
+    mu.extend(active.iter().map(|c| c.mu));
     // Under a projection, a closed contact whose bodies have a guard in the problem (a
     // step that throws a journal across its clearance) keeps its start rows, as a swung
     // one does. A ring's closest point on mid-step rows and its guards on start rows
@@ -280,27 +284,24 @@ pub fn velocity_step(
     // is closed, and what its start-of-step rows show as approach is the turn of its frame
     // over the last step (sliding along a concave surface), not an impact.
     let is_persistent = |c: usize| persistent.is_some_and(|p| p.persistent.contains(&c));
-    let shift: Vec<f64> = active
-        .iter()
-        .enumerate()
-        .map(|(k, c)| {
-            let u0 = c.point.local_velocity(v0.as_slice()).x;
-            if c.point.gap_law && h > 0.0 {
-                ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
-            } else if is_persistent(k) {
-                0.0
-            } else {
-                c.e * u0
-            }
-        })
-        .collect();
-    let mut r = DVector::zeros(3 * active.len());
+    shift.clear();
+    shift.extend(active.iter().enumerate().map(|(k, c)| {
+        let u0 = c.point.local_velocity(v0.as_slice()).x;
+        if c.point.gap_law && h > 0.0 {
+            ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+        } else if is_persistent(k) {
+            0.0
+        } else {
+            c.e * u0
+        }
+    }));
+    zeros(r, 3 * active.len());
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    // the joints' rows of the last Newton iterate, eliminated (once `eliminated`)
+    // the joints' rows of the last Newton iterate, eliminated (once `eliminated`), and
+    // their impulses in `q_joint`
     let mut eliminated = false;
-    let mut q_joint = DVector::zeros(0);
 
     let mut v = v0.clone();
     let mut status = SolverStatus {
@@ -326,10 +327,10 @@ pub fn velocity_step(
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
             let res = match eliminated.then_some(&*elimination) {
                 Some(e) => {
-                    let reactions = &*resid - e.reactions(&q_joint);
-                    newton_residual(&reactions, &gblocks, &r, mask)
+                    e.unreacted(q_joint, resid, unreacted);
+                    newton_residual(unreacted, &problem.g, r, mask)
                 }
-                None => newton_residual(&*resid, &gblocks, &r, mask),
+                None => newton_residual(resid, &problem.g, r, mask),
             };
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
             {
@@ -346,9 +347,10 @@ pub fn velocity_step(
         v_free.copy_from(&*resid);
         w.solve_mut(v_free);
         v_free.zip_apply(&v, |f, vi| *f = vi - *f);
-        let mid = (turning.is_some() || joints.is_some())
-            .then(|| advance_poses(poses, v0, &v, 0.5 * h, 0.5));
-        if let (Some(c), Some(mid), 0) = (turning, &mid, iterations - 1) {
+        if turning.is_some() || joints.is_some() {
+            advance_poses_into(mid, poses, v0, &v, 0.5 * h, 0.5);
+        }
+        if let (Some(c), 0) = (turning, iterations - 1) {
             let at_mid = (c.at)(mid, &c.turning);
             let at_end = (c.at)(poses1, &c.turning);
             for (k, &a) in c.turning.iter().enumerate() {
@@ -365,47 +367,36 @@ pub fn velocity_step(
                 }
                 // the impulse and the velocity on the tangents of the start, carried over
                 let frame = &active[a].point.frame;
-                hblocks.get_or_insert_with(|| gblocks.clone())[a] =
-                    contact_blocks(&at_end[k].with_tangents_of(frame), mask);
-                gblocks[a] = contact_blocks(&at_mid[k].with_tangents_of(frame), mask);
+                problem.turn(
+                    a,
+                    contact_blocks(&at_mid[k].with_tangents_of(frame), mask),
+                    contact_blocks(&at_end[k].with_tangents_of(frame), mask),
+                );
             }
         }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         if let Some(rows_at) = joints {
-            let mid = mid.as_ref().expect("midpoint poses with joints");
             elimination.assemble(w, rows_at, (t + 0.5 * h, mid), (t + h, poses1), mask);
             eliminated = true;
+            elimination.impulses_into(v_free, q_free);
+            copy_into(constrained, v_free);
+            elimination.add_response(q_free, constrained);
         }
-        let (constrained, q_free) = match eliminated.then_some(&mut *elimination) {
-            Some(e) => {
-                let q_free = e.impulses(v_free);
-                let mut constrained = v_free.clone();
-                e.add_response(&q_free, &mut constrained);
-                (Some(constrained), q_free)
-            }
-            None => (None, DVector::zeros(0)),
+        let v_free_c = match eliminated {
+            true => &*constrained,
+            false => &*v_free,
         };
-        let v_free_c = constrained.as_ref().unwrap_or(&*v_free);
         if active.is_empty() {
-            q_joint = q_free;
+            std::mem::swap(q_joint, q_free);
             v.copy_from(v_free_c);
             continue;
         }
         // Mid-step and end rows make the Delassus matrix nonsymmetric. Where the solver does
         // not solve that problem within `NONSYMMETRIC_SWEEPS`, the step solves it on its
         // start-of-step rows instead, first order for that one step.
-        let ContactProblem {
-            ys, corrections, ..
-        } = loop {
-            let problem = contact_problem(
-                w,
-                eliminated.then_some(&*elimination),
-                &gblocks,
-                hblocks.as_deref(),
-                v_free_c,
-                &shift,
-            );
-            let nonsymmetric = hblocks.is_some();
+        loop {
+            problem.assemble(w, eliminated.then_some(&*elimination), v_free_c, shift);
+            let nonsymmetric = problem.turned;
             let opts = match nonsymmetric {
                 true => NsgsOptions {
                     max_sweeps: NONSYMMETRIC_SWEEPS.min(params.solver.max_sweeps),
@@ -414,55 +405,58 @@ pub fn velocity_step(
                 },
                 false => params.solver,
             };
-            cap_warm_start(&mut r, &problem.w, &problem.q);
-            let before = nonsymmetric.then(|| r.clone());
+            cap_warm_start(r, &problem.w, &problem.q);
+            if nonsymmetric {
+                copy_into(before, r);
+            }
             status = solve_fc3d(
                 &Fc3d {
                     w: &problem.w,
                     q: &problem.q,
-                    mu: &mu,
+                    mu,
                 },
-                &mut r,
+                r,
                 &opts,
             );
-            match before {
-                Some(before) if !status.converged => {
-                    r = before;
-                    hblocks = None;
-                    gblocks = start_blocks();
-                }
-                _ => break problem,
+            if !nonsymmetric || status.converged {
+                break;
             }
-        };
+            r.copy_from(before);
+            problem.start_rows(active, mask);
+        }
         v.copy_from(v_free_c);
-        for (c, yc) in ys.iter().enumerate() {
+        for (c, yc) in problem.ys.iter().enumerate() {
             let p = r.fixed_rows::<3>(3 * c);
             for (b, y) in yc {
                 let mut seg = v.fixed_rows_mut::<6>(6 * b);
                 seg += y * p;
             }
         }
-        q_joint = q_free;
-        for (c, corr) in corrections.iter().enumerate() {
+        std::mem::swap(q_joint, q_free);
+        for (c, corr) in problem.corrections.iter().enumerate() {
             if let Some(corr) = corr {
-                q_joint -= corr * r.fixed_rows::<3>(3 * c);
+                *q_joint -= corr * r.fixed_rows::<3>(3 * c);
             }
         }
     }
-    let normal_speeds = hblocks
-        .as_ref()
-        .unwrap_or(&gblocks)
+    let normal_speeds = problem
+        .measured()
         .iter()
         .map(|bc| bc.velocity(&v).x)
         .collect();
+    let impulses = (0..active.len())
+        .map(|c| r.fixed_rows::<3>(3 * c).into_owned())
+        .collect();
+    let joint_impulses = match eliminated {
+        true => q_joint.iter().copied().collect(),
+        false => Vec::new(),
+    };
     SCRATCH.set(Some(scratch));
     VelocityStep {
         v,
-        impulses: (0..active.len())
-            .map(|c| r.fixed_rows::<3>(3 * c).into_owned())
-            .collect(),
+        impulses,
         normal_speeds,
-        joint_impulses: q_joint.iter().copied().collect(),
+        joint_impulses,
         newton_iterations: iterations,
         newton_converged: converged,
         solver: status,
@@ -482,8 +476,23 @@ struct Scratch {
     dv: DVector<f64>,
     v_free: DVector<f64>,
     poses1: Vec<Pose>,
+    /// The poses at mid-step, where the joints' and the persistent contacts' impulses act.
+    mid: Vec<Pose>,
     w: IterationMatrix,
     elimination: Elimination,
+    /// The joints' impulses for the free velocity, those of the last iterate, the free
+    /// velocity under the joints, and the residual their impulses leave.
+    q_free: DVector<f64>,
+    q_joint: DVector<f64>,
+    constrained: DVector<f64>,
+    unreacted: DVector<f64>,
+    problem: ContactProblem,
+    /// The contacts' friction coefficients and impact-law shifts in this step, their
+    /// impulses, and those the nonsymmetric problem started from.
+    mu: Vec<f64>,
+    shift: Vec<f64>,
+    r: DVector<f64>,
+    before: DVector<f64>,
 }
 
 impl Scratch {
@@ -530,61 +539,124 @@ fn cap_warm_start(r: &mut DVector<f64>, w: &DMatrix<f64>, q: &DVector<f64>) {
     }
 }
 
-/// The contact problem of a velocity step.
+/// The contact problem of a velocity step, kept from one step to the next with its
+/// storage.
+#[derive(Default)]
 struct ContactProblem {
+    /// Each contact's Jacobian blocks along which its impulse acts (G), and, when those of
+    /// some persistent contact `turned`, those along which its velocity is measured (H).
+    g: Vec<ContactBlocks>,
+    h: Vec<ContactBlocks>,
+    turned: bool,
     /// Each contact's response W⁻¹Gᵀ along its impulse rows, sparse over the bodies; with
     /// joints, constrained (y − W⁻¹Hᵀ S⁻¹ H y).
     ys: Vec<Vec<(usize, Matrix6x3<f64>)>>,
     /// S⁻¹ H y of each contact: what its impulse takes from the joints' ones.
     corrections: Vec<Option<DMatrix<f64>>>,
+    /// The responses on each body, as (contact, place in its response).
+    on_body: Vec<Vec<(usize, usize)>>,
     /// The Delassus matrix and the free local velocity (shifted by the impact law).
     w: DMatrix<f64>,
     q: DVector<f64>,
 }
 
-/// The contact problem with impulses along `gblocks` and velocities measured along
-/// `hblocks`, or `gblocks` where the rows are the same.
-fn contact_problem(
-    w: &IterationMatrix,
-    elimination: Option<&Elimination>,
-    gblocks: &[ContactBlocks],
-    hblocks: Option<&[ContactBlocks]>,
-    v_free: &DVector<f64>,
-    shift: &[f64],
-) -> ContactProblem {
-    let mut ys: Vec<Vec<(usize, Matrix6x3<f64>)>> =
-        gblocks.iter().map(|b| w.solve_blocks(b)).collect();
-    let corrections: Vec<Option<DMatrix<f64>>> = match elimination {
-        Some(e) => ys.iter_mut().map(|y| e.constrain(y)).collect(),
-        None => Vec::new(),
-    };
-    let n = gblocks.len();
-    // Delassus blocks W_cd = Σ_b H_cb y_db over the bodies b both contacts move: the
-    // responses indexed by body, so that only the nonzero blocks are formed
-    let mut responses: Vec<Vec<(usize, &Matrix6x3<f64>)>> = vec![Vec::new(); v_free.len() / 6];
-    for (d, yd) in ys.iter().enumerate() {
-        for (b, y) in yd {
-            responses[*b].push((d, y));
+impl ContactProblem {
+    /// Every contact on its start-of-step rows.
+    fn start_rows(&mut self, active: &[ActiveContact], mask: &[bool]) {
+        self.g.clear();
+        self.g
+            .extend(active.iter().map(|c| contact_blocks(c.point, mask)));
+        self.turned = false;
+    }
+
+    /// Contact `a` acts along `g` and is measured along `h`.
+    fn turn(&mut self, a: usize, g: ContactBlocks, h: ContactBlocks) {
+        if !self.turned {
+            self.h.clone_from(&self.g);
+            self.turned = true;
+        }
+        self.g[a] = g;
+        self.h[a] = h;
+    }
+
+    /// The rows each contact's velocity is measured along.
+    fn measured(&self) -> &[ContactBlocks] {
+        match self.turned {
+            true => &self.h,
+            false => &self.g,
         }
     }
-    let mut dmat = DMatrix::zeros(3 * n, 3 * n);
-    let mut q = DVector::zeros(3 * n);
-    for (c, bc) in hblocks.unwrap_or(gblocks).iter().enumerate() {
-        let mut qc = bc.velocity(v_free);
-        qc.x += shift[c];
-        q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
-        for (b, g) in bc.iter() {
-            for &(d, y) in &responses[*b] {
-                let mut blk = dmat.fixed_view_mut::<3, 3>(3 * c, 3 * d);
-                blk += g * y;
+
+    /// Forms the problem for the iteration matrix `w`, the joints' `elimination`, the
+    /// free velocity and the impact law's `shift`.
+    fn assemble(
+        &mut self,
+        w: &IterationMatrix,
+        elimination: Option<&Elimination>,
+        v_free: &DVector<f64>,
+        shift: &[f64],
+    ) {
+        let n = self.g.len();
+        self.ys.truncate(n);
+        self.ys.resize_with(n, Vec::new);
+        for (y, b) in self.ys.iter_mut().zip(&self.g) {
+            w.solve_blocks_into(b, y);
+        }
+        self.corrections.clear();
+        if let Some(e) = elimination {
+            self.corrections
+                .extend(self.ys.iter_mut().map(|y| e.constrain(y)));
+        }
+        // Delassus blocks W_cd = Σ_b H_cb y_db over the bodies b both contacts move: the
+        // responses indexed by body, so that only the nonzero blocks are formed
+        let bodies = v_free.len() / 6;
+        self.on_body.truncate(bodies);
+        self.on_body.iter_mut().for_each(Vec::clear);
+        self.on_body.resize_with(bodies, Vec::new);
+        for (d, yd) in self.ys.iter().enumerate() {
+            for (k, (b, _)) in yd.iter().enumerate() {
+                self.on_body[*b].push((d, k));
+            }
+        }
+        if self.w.shape() == (3 * n, 3 * n) {
+            self.w.fill(0.0);
+        } else {
+            self.w = DMatrix::zeros(3 * n, 3 * n);
+        }
+        zeros(&mut self.q, 3 * n);
+        let measured = match self.turned {
+            true => &self.h,
+            false => &self.g,
+        };
+        for (c, bc) in measured.iter().enumerate() {
+            let mut qc = bc.velocity(v_free);
+            qc.x += shift[c];
+            self.q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
+            for (b, g) in bc.iter() {
+                for &(d, k) in &self.on_body[*b] {
+                    let mut blk = self.w.fixed_view_mut::<3, 3>(3 * c, 3 * d);
+                    blk += g * self.ys[d][k].1;
+                }
             }
         }
     }
-    ContactProblem {
-        ys,
-        corrections,
-        w: dmat,
-        q,
+}
+
+/// Sets `buf` to `n` zeros, in its own storage when it has that length.
+fn zeros(buf: &mut DVector<f64>, n: usize) {
+    if buf.len() == n {
+        buf.fill(0.0);
+    } else {
+        *buf = DVector::zeros(n);
+    }
+}
+
+/// Copies `src` into `dst`, in its own storage when the lengths agree.
+fn copy_into(dst: &mut DVector<f64>, src: &DVector<f64>) {
+    if dst.len() == src.len() {
+        dst.copy_from(src);
+    } else {
+        *dst = src.clone();
     }
 }
 
@@ -621,8 +693,9 @@ mod tests {
 
     /// A step reads nothing that an earlier one left in its scratch: the same run ends in
     /// the same state on a fresh thread and on one whose scratch vectors were first filled
-    /// with NaN, and whose iteration matrix (and the joints' elimination with it) was
-    /// assembled at NaN velocities, which any read before a write would spread. The ball
+    /// with NaN, whose contact problem was left stale and of another size, and whose
+    /// iteration matrix (and the joints' elimination with it) was assembled at NaN
+    /// velocities, which any read before a write would spread. The ball
     /// bounces (a contact under Moreau–Jean); the four-bar's joints are eliminated and
     /// projected.
     #[test]
@@ -641,6 +714,27 @@ mod tests {
                     sim.model.joint_rows_into(t, poses, out)
                 };
                 elimination.assemble(&w, &rows_at, (0.0, poses), (0.0, poses), &mask);
+                // a contact problem of another size, with stale rows and responses
+                let stale = |n: usize| DVector::from_element(n, f64::NAN);
+                let problem = ContactProblem {
+                    g: Vec::new(),
+                    h: Vec::new(),
+                    turned: true,
+                    ys: vec![vec![(0, Matrix6x3::from_element(f64::NAN))]; 3],
+                    corrections: Vec::new(),
+                    on_body: vec![vec![(2, 0)]; 5],
+                    w: DMatrix::from_element(3, 3, f64::NAN),
+                    q: stale(3),
+                };
+                let nan_pose = Pose {
+                    x: Vector3::from_element(f64::NAN),
+                    p: nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+                        f64::NAN,
+                        f64::NAN,
+                        f64::NAN,
+                        f64::NAN,
+                    )),
+                };
                 SCRATCH.set(Some(Box::new(Scratch {
                     f0: nan(),
                     mv: nan(),
@@ -649,8 +743,18 @@ mod tests {
                     dv: nan(),
                     v_free: nan(),
                     poses1: poses.clone(),
+                    mid: vec![nan_pose; poses.len() + 1],
                     w,
                     elimination,
+                    q_free: stale(5),
+                    q_joint: stale(5),
+                    constrained: nan(),
+                    unreacted: nan(),
+                    problem,
+                    mu: vec![f64::NAN; 2],
+                    shift: vec![f64::NAN; 2],
+                    r: stale(3),
+                    before: stale(3),
                 })));
             }
             sim.run_until(duration, |_, _| {}).unwrap();

@@ -73,16 +73,15 @@ pub fn dot(row: &BilateralRow, v: &[f64]) -> f64 {
         .sum::<f64>()
 }
 
-/// Rᵀ λ, with an entry per degree of freedom (`ndof`).
-pub fn transposed_times(rows: &[BilateralRow], lambda: &DVector<f64>, ndof: usize) -> DVector<f64> {
-    let mut out = DVector::zeros(ndof);
+/// Rᵀ λ into `out`, which has an entry per degree of freedom.
+pub fn transposed_times_into(rows: &[BilateralRow], lambda: &DVector<f64>, out: &mut DVector<f64>) {
+    out.fill(0.0);
     for (row, l) in rows.iter().zip(lambda.iter()) {
         for (b, g) in blocks(row) {
             let mut seg = out.fixed_rows_mut::<6>(6 * b);
             seg += g.transpose() * *l;
         }
     }
-    out
 }
 
 #[cfg(test)]
@@ -111,7 +110,9 @@ mod tests {
         let rv = DVector::from_iterator(2, rows.iter().map(|r| dot(r, v.as_slice())));
         assert!((rv - &dense * &v).amax() < 1e-14);
         let lambda = DVector::from_vec(vec![0.3, -2.0]);
-        assert!((transposed_times(&rows, &lambda, ndof) - dense.tr_mul(&lambda)).amax() < 1e-14);
+        let mut rt = DVector::from_element(ndof, f64::NAN);
+        transposed_times_into(&rows, &lambda, &mut rt);
+        assert!((rt - dense.tr_mul(&lambda)).amax() < 1e-14);
         // held degrees of freedom are zero in M⁻¹, which masks them
         let mut minv = vec![Matrix6::identity() * 2.0; 3];
         minv[1][(4, 4)] = 0.0;
