@@ -558,6 +558,8 @@ struct ContactProblem {
     /// The Delassus matrix and the free local velocity (shifted by the impact law).
     w: DMatrix<f64>,
     q: DVector<f64>,
+    /// The blocks (c, d) of W written, all others zero.
+    written: Vec<(usize, usize)>,
 }
 
 impl ContactProblem {
@@ -618,11 +620,16 @@ impl ContactProblem {
                 self.on_body[*b].push((d, k));
             }
         }
+        // only the blocks the last problem wrote are nonzero (a third of them on the circuit
+        // breaker): zeroing those in place of the whole matrix took 3 % of a sample
         if self.w.shape() == (3 * n, 3 * n) {
-            self.w.fill(0.0);
+            for &(c, d) in &self.written {
+                self.w.fixed_view_mut::<3, 3>(3 * c, 3 * d).fill(0.0);
+            }
         } else {
             self.w = DMatrix::zeros(3 * n, 3 * n);
         }
+        self.written.clear();
         zeros(&mut self.q, 3 * n);
         let measured = match self.turned {
             true => &self.h,
@@ -636,6 +643,7 @@ impl ContactProblem {
                 for &(d, k) in &self.on_body[*b] {
                     let mut blk = self.w.fixed_view_mut::<3, 3>(3 * c, 3 * d);
                     blk += g * self.ys[d][k].1;
+                    self.written.push((c, d));
                 }
             }
         }
@@ -645,7 +653,7 @@ impl ContactProblem {
 /// Sets `buf` to `n` zeros, in its own storage when it has that length.
 fn zeros(buf: &mut DVector<f64>, n: usize) {
     if buf.len() == n {
-        buf.fill(0.0);
+        buf.as_mut_slice().fill(0.0);
     } else {
         *buf = DVector::zeros(n);
     }
@@ -725,6 +733,7 @@ mod tests {
                     on_body: vec![vec![(2, 0)]; 5],
                     w: DMatrix::from_element(3, 3, f64::NAN),
                     q: stale(3),
+                    written: vec![(0, 0)],
                 };
                 let nan_pose = Pose {
                     x: Vector3::from_element(f64::NAN),

@@ -75,7 +75,7 @@ pub fn dot(row: &BilateralRow, v: &[f64]) -> f64 {
 
 /// Rᵀ λ into `out`, which has an entry per degree of freedom.
 pub fn transposed_times_into(rows: &[BilateralRow], lambda: &DVector<f64>, out: &mut DVector<f64>) {
-    out.fill(0.0);
+    out.as_mut_slice().fill(0.0);
     for (row, l) in rows.iter().zip(lambda.iter()) {
         for (b, g) in blocks(row) {
             let mut seg = out.fixed_rows_mut::<6>(6 * b);

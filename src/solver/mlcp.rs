@@ -42,7 +42,7 @@ impl EqualitySolver {
     /// `factorise` (its storage, and that of the factors, kept from one system to the next).
     pub fn zeroed(&mut self, n: usize) -> &mut DMatrix<f64> {
         if self.a.shape() == (n, n) {
-            self.a.fill(0.0);
+            self.a.as_mut_slice().fill(0.0);
         } else {
             self.a = DMatrix::zeros(n, n);
         }

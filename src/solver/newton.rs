@@ -97,13 +97,15 @@ pub fn global_newton(
     // entry k of the reordered problem is entry `index(k)` of the original
     let index = |k: usize| 3 * order[k / 3] + k % 3;
     let m = r.len();
-    let mut w = DMatrix::zeros(m, m);
-    for (j, mut column) in w.column_iter_mut().enumerate() {
-        let from = p.w.column(index(j));
-        for (k, rows) in column.as_mut_slice().chunks_exact_mut(3).enumerate() {
-            rows.copy_from_slice(&from.as_slice()[3 * order[k]..3 * order[k] + 3]);
+    // column by column, every entry written once
+    let mut data = Vec::with_capacity(m * m);
+    for j in 0..m {
+        let from = &p.w.as_slice()[index(j) * m..][..m];
+        for &a in &order {
+            data.extend_from_slice(&from[3 * a..3 * a + 3]);
         }
     }
+    let w = DMatrix::from_vec(m, m, data);
     let q = DVector::from_fn(m, |i, _| p.q[index(i)]);
     let mu: Vec<f64> = order.iter().map(|&a| p.mu[a]).collect();
     let mut reordered = DVector::from_fn(m, |i, _| r[index(i)]);
@@ -155,7 +157,7 @@ fn newton_in_order(
         // direction) make J singular but the equations consistent: a tiny diagonal shift
         // keeps the step defined without changing the solution.
         let mut jac = jac.expect("requested");
-        let shift = 1e-10 * jac.amax().max(f64::MIN_POSITIVE);
+        let shift = 1e-10 * pattern_amax(&jac, pattern).max(f64::MIN_POSITIVE);
         for k in 0..jac.nrows() {
             jac[(k, k)] += shift;
         }
@@ -175,6 +177,23 @@ fn newton_in_order(
         }
     }
     (error(r) <= tolerance).then_some(max_iterations)
+}
+
+/// max |J_ij| over the blocks of `pattern`, where all of J's nonzero entries lie: J's
+/// `amax` without reading its zero blocks.
+fn pattern_amax(j: &DMatrix<f64>, pattern: &BlockPattern) -> f64 {
+    let (m, data) = (j.nrows(), j.as_slice());
+    let mut max = 0.0f64;
+    for a in 0..m / 3 {
+        for &b in pattern.row(a) {
+            for c in 3 * b..3 * b + 3 {
+                for x in &data[c * m + 3 * a..][..3] {
+                    max = max.max(x.abs());
+                }
+            }
+        }
+    }
+    max
 }
 
 /// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r), each
@@ -234,4 +253,45 @@ pub fn proximal_newton(
         rel = (rel * 0.3).max(1e-7);
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Jacobian's largest entry, read over W's block pattern only, is its `amax`: the
+    /// Jacobian has no nonzero entry outside the pattern. W is an arrow: contact 0 is
+    /// coupled to every other, and no other pair is.
+    #[test]
+    fn the_jacobian_lies_in_the_pattern() {
+        let n = 5;
+        let w = DMatrix::from_fn(3 * n, 3 * n, |i, j| {
+            let (a, b) = (i / 3, j / 3);
+            if i == j {
+                2.0 + 0.1 * i as f64
+            } else if a == b || a == 0 || b == 0 {
+                0.4 / (1.0 + (i + 2 * j) as f64)
+            } else {
+                0.0
+            }
+        });
+        let pattern = BlockPattern::of(&w);
+        let q = DVector::from_fn(3 * n, |i, _| (1.7 * i as f64).sin() - 0.3);
+        let r = DVector::from_fn(3 * n, |i, _| if i % 3 == 0 { 0.5 } else { 0.9 });
+        let mu = [0.3, 0.5, 0.1, 0.8, 0.2];
+        let p = Fc3d {
+            w: &w,
+            q: &q,
+            mu: &mu,
+        };
+        let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.5)).collect();
+        let (_, jac) = phi_and_jacobian(&p, &pattern, &r, &rho, true);
+        let jac = jac.unwrap();
+        assert!(jac.amax() > 0.1);
+        assert_eq!(pattern_amax(&jac, &pattern), jac.amax());
+        // an entry outside the pattern would be missed: the test can tell
+        let mut outside = jac.clone();
+        outside[(3, 6)] = 10.0 * jac.amax();
+        assert!(pattern_amax(&outside, &pattern) < outside.amax());
+    }
 }

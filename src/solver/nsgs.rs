@@ -161,13 +161,19 @@ impl Coupling {
         let Coupling { blocks, start } = self;
         blocks.clear();
         start.clear();
+        // block (a, b) read from its three columns, contiguous in W's storage
+        let (m, data) = (3 * n, w.as_slice());
+        let nonzero = |a: usize, b: usize| {
+            (0..3).any(|c| {
+                data[(3 * b + c) * m + 3 * a..][..3]
+                    .iter()
+                    .any(|&x| x != 0.0)
+            })
+        };
         for a in 0..n {
             start.push(blocks.len());
-            for b in (0..n).filter(|&b| b != a) {
-                let block = w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned();
-                if block.iter().any(|&x| x != 0.0) {
-                    blocks.push((b, block));
-                }
+            for b in (0..n).filter(|&b| b != a && nonzero(a, b)) {
+                blocks.push((b, w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned()));
             }
         }
         start.push(blocks.len());
