@@ -17,6 +17,7 @@
 use super::iteration_matrix::IterationMatrix;
 use super::moreau_jean::JointRowsAt;
 use super::rows;
+use crate::math::buffer;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::Pose;
 use crate::solver::EqualitySolver;
@@ -124,9 +125,7 @@ impl Elimination {
     /// `q`.
     pub(super) fn impulses_into(&mut self, v_free: &DVector<f64>, q: &mut DVector<f64>) {
         let v = v_free.as_slice();
-        if q.len() != self.h.len() {
-            *q = DVector::zeros(self.h.len());
-        }
+        buffer::fit(q, self.h.len());
         for (qk, r) in q.iter_mut().zip(&self.h) {
             *qk = r.rate - rows::dot(r, v);
         }
@@ -146,9 +145,7 @@ impl Elimination {
     /// R − Gᵀ Q: what of the residual `r` the joints' impulses Q do not account for, into
     /// `out`.
     pub(super) fn unreacted(&self, q: &DVector<f64>, r: &DVector<f64>, out: &mut DVector<f64>) {
-        if out.len() != r.len() {
-            *out = DVector::zeros(r.len());
-        }
+        buffer::fit(out, r.len());
         rows::transposed_times_into(&self.g, q, out);
         out.zip_apply(r, |o, ri| *o = ri - *o);
     }

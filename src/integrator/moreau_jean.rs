@@ -10,6 +10,7 @@
 use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
+use crate::math::buffer::{self, copy_into, zeros};
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -299,9 +300,9 @@ pub fn velocity_step(
     for (i, p) in warm.iter().enumerate() {
         r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    // the joints' rows of the last Newton iterate, eliminated (once `eliminated`), and
-    // their impulses in `q_joint`
-    let mut eliminated = false;
+    // the joints' rows, eliminated at every Newton iterate (the first one before anything
+    // reads them), and their impulses in `q_joint`
+    let eliminated = joints.is_some();
 
     let mut v = v0.clone();
     let mut status = SolverStatus {
@@ -377,7 +378,6 @@ pub fn velocity_step(
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         if let Some(rows_at) = joints {
             elimination.assemble(w, rows_at, (t + 0.5 * h, mid), (t + h, poses1), mask);
-            eliminated = true;
             elimination.impulses_into(v_free, q_free);
             copy_into(constrained, v_free);
             elimination.add_response(q_free, constrained);
@@ -506,9 +506,7 @@ impl Scratch {
             &mut self.dv,
             &mut self.v_free,
         ] {
-            if b.len() != n {
-                *b = DVector::zeros(n);
-            }
+            buffer::fit(b, n);
         }
     }
 }
@@ -621,7 +619,7 @@ impl ContactProblem {
             }
         }
         // only the blocks the last problem wrote are nonzero (a third of them on the circuit
-        // breaker): zeroing those in place of the whole matrix took 3 % of a sample
+        // breaker): zeroing those, not the whole matrix, saves a pass over the zero ones
         if self.w.shape() == (3 * n, 3 * n) {
             for &(c, d) in &self.written {
                 self.w.fixed_view_mut::<3, 3>(3 * c, 3 * d).fill(0.0);
@@ -647,24 +645,6 @@ impl ContactProblem {
                 }
             }
         }
-    }
-}
-
-/// Sets `buf` to `n` zeros, in its own storage when it has that length.
-fn zeros(buf: &mut DVector<f64>, n: usize) {
-    if buf.len() == n {
-        buf.as_mut_slice().fill(0.0);
-    } else {
-        *buf = DVector::zeros(n);
-    }
-}
-
-/// Copies `src` into `dst`, in its own storage when the lengths agree.
-fn copy_into(dst: &mut DVector<f64>, src: &DVector<f64>) {
-    if dst.len() == src.len() {
-        dst.copy_from(src);
-    } else {
-        *dst = src.clone();
     }
 }
 
@@ -703,9 +683,8 @@ mod tests {
     /// the same state on a fresh thread and on one whose scratch vectors were first filled
     /// with NaN, whose contact problem was left stale and of another size, and whose
     /// iteration matrix (and the joints' elimination with it) was assembled at NaN
-    /// velocities, which any read before a write would spread. The ball
-    /// bounces (a contact under Moreau–Jean); the four-bar's joints are eliminated and
-    /// projected.
+    /// velocities, which any read before a write would spread. The ball bounces (a contact
+    /// under Moreau–Jean); the four-bar's joints are eliminated and projected.
     #[test]
     fn a_step_reads_nothing_an_earlier_one_left_in_its_scratch() {
         let run = |name: &'static str, duration: f64, poison: bool| {

@@ -1,8 +1,11 @@
 //! Rotation helpers on top of nalgebra: the skew operator, the quaternion exponential map
-//! and the deterministic tangent basis of a contact normal.
+//! and the deterministic tangent basis of a contact normal; and (`buffer`) the vectors a
+//! step keeps from one step to the next.
 //!
 //! Quaternions stay nalgebra's `UnitQuaternion`; nothing here multiplies quaternion
 //! components by hand except the exponential map itself, which needs a series near zero.
+
+pub mod buffer;
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 

@@ -8,7 +8,8 @@ use super::fc3d::{
     SolverStatus,
 };
 use super::newton::{global_newton, proximal_newton};
-use super::ordering::BlockPattern;
+use super::ordering::{block_is_nonzero, BlockPattern};
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
@@ -161,18 +162,9 @@ impl Coupling {
         let Coupling { blocks, start } = self;
         blocks.clear();
         start.clear();
-        // block (a, b) read from its three columns, contiguous in W's storage
-        let (m, data) = (3 * n, w.as_slice());
-        let nonzero = |a: usize, b: usize| {
-            (0..3).any(|c| {
-                data[(3 * b + c) * m + 3 * a..][..3]
-                    .iter()
-                    .any(|&x| x != 0.0)
-            })
-        };
         for a in 0..n {
             start.push(blocks.len());
-            for b in (0..n).filter(|&b| b != a && nonzero(a, b)) {
+            for b in (0..n).filter(|&b| b != a && block_is_nonzero(w, a, b)) {
                 blocks.push((b, w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned()));
             }
         }
@@ -204,11 +196,7 @@ fn local_velocity(
     u: &mut DVector<f64>,
 ) {
     let rb = |b: usize| Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
-    if u.len() == p.q.len() {
-        u.copy_from(p.q);
-    } else {
-        *u = p.q.clone();
-    }
+    buffer::copy_into(u, p.q);
     for (a, (block, _)) in blocks.iter().enumerate() {
         let mut ua = u.fixed_rows::<3>(3 * a) + block * rb(a);
         for (b, w_ab) in coupled.of_contact(a) {

@@ -7,6 +7,17 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
+/// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
+/// contiguous in W's storage.
+pub fn block_is_nonzero(w: &DMatrix<f64>, a: usize, b: usize) -> bool {
+    let (m, data) = (w.nrows(), w.as_slice());
+    (0..3).any(|c| {
+        data[(3 * b + c) * m + 3 * a..][..3]
+            .iter()
+            .any(|&x| x != 0.0)
+    })
+}
+
 /// Which 3×3 blocks of a contact problem's W are nonzero, symmetrised (a and b coupled when
 /// W_ab or W_ba is nonzero); the diagonal blocks always count.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,16 +33,11 @@ impl BlockPattern {
     /// The pattern of W (3n × 3n), read column by column (contiguous in its storage).
     pub fn of(w: &DMatrix<f64>) -> Self {
         let n = w.nrows() / 3;
-        let m = 3 * n;
-        let data = w.as_slice();
-        let nonzero = |a: usize, b: usize| {
-            (0..3).any(|c| {
-                let at = (3 * b + c) * m + 3 * a;
-                data[at] != 0.0 || data[at + 1] != 0.0 || data[at + 2] != 0.0
-            })
-        };
         let pairs = (0..n).flat_map(|b| (0..n).map(move |a| (a, b)));
-        Self::of_pairs(n, pairs.filter(|&(a, b)| a != b && nonzero(a, b)))
+        Self::of_pairs(
+            n,
+            pairs.filter(|&(a, b)| a != b && block_is_nonzero(w, a, b)),
+        )
     }
 
     /// The pattern of n contacts whose off-diagonal blocks (a, b) are `pairs`, for a caller

@@ -325,9 +325,10 @@ impl Joint {
                 .copy_from(&(-c.transpose() * ra));
             row(ga, gb, x.dot(&y), 0.0, RowUnit::Angle)
         };
-        // the directions each kind needs, turned into the world only where it needs them
-        let p1 = || pa.dir(&self.perp_a[0]);
-        let p2 = || pa.dir(&self.perp_a[1]);
+        // a's two perpendiculars in the world, turned once, for every kind but the
+        // spherical joint, which does not use them
+        let perp = (self.kind != JointKind::Spherical)
+            .then(|| (pa.dir(&self.perp_a[0]), pa.dir(&self.perp_a[1])));
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
@@ -335,12 +336,13 @@ impl Joint {
                 }
             }
             JointKind::Prismatic => {
-                out.push(translation(p1(), true));
-                out.push(translation(p2(), true));
+                let (p1, p2) = perp.expect("a prismatic joint's perpendiculars");
+                out.push(translation(p1, true));
+                out.push(translation(p2, true));
             }
         }
-        if self.kind != JointKind::Spherical {
-            let (p1, p2, axis_b) = (p1(), p2(), pb.dir(&self.axis_b));
+        if let Some((p1, p2)) = perp {
+            let axis_b = pb.dir(&self.axis_b);
             out.push(angular(p1, axis_b));
             out.push(angular(p2, axis_b));
             if matches!(self.kind, JointKind::Fixed | JointKind::Prismatic) {

@@ -1,0 +1,53 @@
+//! Vectors kept from one step to the next (a solver's or a step's scratch): sized and
+//! filled in their own storage, which is allocated again only when the length changes.
+
+use nalgebra::DVector;
+
+/// Gives `buf` the length `n`, keeping its storage (and entries) when it has that length
+/// already: for a caller that writes every entry next.
+pub fn fit(buf: &mut DVector<f64>, n: usize) {
+    if buf.len() != n {
+        *buf = DVector::zeros(n);
+    }
+}
+
+/// Sets `buf` to `n` zeros.
+pub fn zeros(buf: &mut DVector<f64>, n: usize) {
+    if buf.len() == n {
+        buf.as_mut_slice().fill(0.0);
+    } else {
+        *buf = DVector::zeros(n);
+    }
+}
+
+/// Copies `src` into `dst`.
+pub fn copy_into(dst: &mut DVector<f64>, src: &DVector<f64>) {
+    fit(dst, src.len());
+    dst.copy_from(src);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each keeps the storage of a vector of the right length and resizes one of another.
+    #[test]
+    fn buffers_are_sized_and_filled() {
+        let mut buf = DVector::from_element(3, f64::NAN);
+        let at = buf.as_ptr();
+        zeros(&mut buf, 3);
+        assert_eq!((buf.as_ptr(), buf.as_slice()), (at, &[0.0; 3][..]));
+        zeros(&mut buf, 2);
+        assert_eq!(buf.as_slice(), &[0.0; 2]);
+        let src = DVector::from_vec(vec![1.0, -2.0, 3.5, 4.0]);
+        copy_into(&mut buf, &src);
+        assert_eq!(buf, src);
+        let at = buf.as_ptr();
+        copy_into(&mut buf, &(&src * 2.0));
+        assert_eq!((buf.as_ptr(), buf[1]), (at, -4.0));
+        fit(&mut buf, 4);
+        assert_eq!((buf.as_ptr(), buf[3]), (at, 8.0));
+        fit(&mut buf, 1);
+        assert_eq!(buf.len(), 1);
+    }
+}
