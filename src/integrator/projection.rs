@@ -6,6 +6,7 @@
 //! Velocities are not touched.
 
 use super::rows;
+use crate::math::buffer;
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
@@ -130,6 +131,7 @@ pub type ContactRowsAt<'a> = &'a dyn Fn(&[Pose], &mut ContactRowsOf);
 
 /// The rows of the contacts projected, after the joints': the normal rows, and those whose
 /// gap curves sharply across its normal.
+#[derive(Default)]
 pub struct ContactRowsOf {
     rows: Vec<BilateralRow>,
     /// (row index, the lateral displacement as a row, κ).
@@ -152,64 +154,71 @@ impl ContactRowsOf {
     }
 }
 
-/// Rows and violations of the constraints at `poses`: the joint rows, then the contacts'.
+/// Rows and violations of the constraints at some poses: the joint rows, then the
+/// contacts' (`of`), with the contact rows whose gap curves sharply across its normal.
+#[derive(Default)]
 struct Evaluated {
-    rows: Vec<BilateralRow>,
+    of: ContactRowsOf,
     njoint: usize,
-    /// The contact rows whose gap curves sharply across its normal: (row index, the
-    /// lateral displacement as a row, κ).
-    curved: Vec<(usize, BilateralRow, f64)>,
     /// Largest violation (the convergence test) and the sum of squares (the merit).
     max: f64,
     squares: f64,
 }
 
-fn evaluate_rows(
-    model: &Model,
-    t: f64,
-    poses: &[Pose],
-    contacts: ContactRowsAt,
-    mode: ContactRows,
-) -> Evaluated {
-    let mut of = ContactRowsOf {
-        rows: model.joint_rows(t, poses),
-        curved: Vec::new(),
-    };
-    let njoint = of.rows.len();
-    contacts(poses, &mut of);
-    let ContactRowsOf { rows, curved } = of;
-    let (mut max, mut squares) = (0.0f64, 0.0);
-    for (k, r) in rows.iter().enumerate() {
-        let v = if k >= njoint && mode == ContactRows::Inequality {
-            (-r.value).max(0.0)
-        } else {
-            r.value.abs()
-        };
-        max = max.max(v);
-        squares += v * v;
+impl Evaluated {
+    fn rows(&self) -> &[BilateralRow] {
+        &self.of.rows
     }
-    Evaluated {
-        rows,
-        njoint,
-        curved,
-        max,
-        squares,
+
+    /// Re-evaluates the rows at `poses`, in place.
+    fn at(
+        &mut self,
+        model: &Model,
+        t: f64,
+        poses: &[Pose],
+        contacts: ContactRowsAt,
+        mode: ContactRows,
+    ) {
+        self.of.rows.clear();
+        self.of.curved.clear();
+        model.joint_rows_into(t, poses, &mut self.of.rows);
+        self.njoint = self.of.rows.len();
+        contacts(poses, &mut self.of);
+        let (mut max, mut squares) = (0.0f64, 0.0);
+        for (k, r) in self.of.rows.iter().enumerate() {
+            let v = if k >= self.njoint && mode == ContactRows::Inequality {
+                (-r.value).max(0.0)
+            } else {
+                r.value.abs()
+            };
+            max = max.max(v);
+            squares += v * v;
+        }
+        (self.max, self.squares) = (max, squares);
     }
 }
 
+/// Poses and their evaluation: the poses projected, or a step tried from them.
+#[derive(Default)]
+struct Trial {
+    poses: Vec<Pose>,
+    evaluated: Evaluated,
+}
+
 /// R X for the rows R and a matrix X with a row per dof, over each row's (at most two)
-/// bodies only: R M⁻¹ Rᵀ without the dense product's zeros (a held dof needs no mask
-/// here: its row of M⁻¹ Rᵀ is zero).
-fn rows_times(rows: &[BilateralRow], x: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(rows.len(), x.ncols());
+/// bodies only, added to `out` (rows × columns of X): R M⁻¹ Rᵀ without the dense product's
+/// zeros (a held dof needs no mask here: its row of M⁻¹ Rᵀ is zero).
+fn add_rows_times(rows: &[BilateralRow], x: &DMatrix<f64>, out: &mut DMatrix<f64>) {
+    let n = x.nrows();
     for (k, row) in rows.iter().enumerate() {
         for (b, g) in row.a.iter().chain(row.b.iter()) {
-            for j in 0..x.ncols() {
-                out[(k, j)] += (g * x.fixed_view::<6, 1>(6 * b, j))[0];
+            for (j, column) in x.as_slice().chunks_exact(n).enumerate() {
+                // summed in order, as nalgebra's 1×6 by 6×1 product does
+                let y = &column[6 * b..6 * b + 6];
+                out[(k, j)] += (1..6).fold(g[0] * y[0], |s, i| s + g[i] * y[i]);
             }
         }
     }
-    out
 }
 
 /// A curvature term counts once its stiffness Λ κ, against the mass the lateral direction
@@ -219,16 +228,25 @@ const CURVATURE_RATIO: f64 = 0.1;
 /// Fixed-point passes on the multipliers of the curvature terms.
 const CURVATURE_PASSES: usize = 8;
 
-/// The linearised projection problem at the current poses (C is `current.rows`): M⁻¹ Cᵀ,
-/// the values c and the Gauss–Newton multipliers.
-struct Linearised<'a> {
-    current: &'a Evaluated,
+/// The storage of a linearised problem, kept from one projection to the next.
+#[derive(Default)]
+struct LinearStorage {
     mct: DMatrix<f64>,
     c: DVector<f64>,
+    lambda: DVector<f64>,
+    /// A = C M⁻¹ Cᵀ and its factors.
+    solver: EqualitySolver,
+    work: Vec<f64>,
+}
+
+/// The linearised projection problem at the current poses (C is `current.rows()`): M⁻¹ Cᵀ,
+/// the values c and the Gauss–Newton multipliers Λ (H = M), where the curvature's fixed
+/// point starts.
+struct Linearised<'a> {
+    current: &'a Evaluated,
+    s: &'a mut LinearStorage,
     mode: ContactRows,
     tolerance: f64,
-    /// Λ of the Gauss–Newton step (H = M), where the curvature's fixed point starts.
-    lambda: DVector<f64>,
 }
 
 impl<'a> Linearised<'a> {
@@ -238,40 +256,70 @@ impl<'a> Linearised<'a> {
         ndof: usize,
         mode: ContactRows,
         tolerance: f64,
+        s: &'a mut LinearStorage,
     ) -> Self {
-        let mct = rows::inverse_mass_times_rows(minv, &current.rows, ndof);
-        let c = DVector::from_iterator(current.rows.len(), current.rows.iter().map(|r| r.value));
-        let mut linear = Linearised {
+        let rows = current.rows();
+        rows::inverse_mass_times_rows_into(minv, rows, ndof, &mut s.mct);
+        buffer::fit(&mut s.c, rows.len());
+        s.c.iter_mut().zip(rows).for_each(|(c, r)| *c = r.value);
+        let a = s.solver.zeroed(rows.len());
+        add_rows_times(rows, &s.mct, a);
+        let linear = Linearised {
             current,
-            mct,
-            c,
+            s,
             mode,
             tolerance,
-            lambda: DVector::zeros(0),
         };
-        linear.lambda = linear.multipliers(rows_times(&current.rows, &linear.mct));
+        if linear.inequality() {
+            let lambda = linear.multipliers(linear.s.solver.matrix());
+            linear.s.lambda = lambda;
+        } else {
+            let LinearStorage {
+                c,
+                lambda,
+                solver,
+                work,
+                ..
+            } = &mut *linear.s;
+            solver.factorise();
+            buffer::fit(lambda, c.len());
+            lambda.zip_apply(c, |l, c| *l = -c);
+            solver.solve_in_place(lambda.as_mut_slice(), work);
+        }
         linear
+    }
+
+    /// Whether the contact rows are complementarity rows.
+    fn inequality(&self) -> bool {
+        self.mode == ContactRows::Inequality && self.current.rows().len() > self.current.njoint
     }
 
     /// Λ from A Λ = −c with A = C H⁻¹ Cᵀ (complementarity on the contact rows in
     /// `Inequality` mode).
-    fn multipliers(&self, a: DMatrix<f64>) -> DVector<f64> {
-        let (n, njoint) = (self.current.rows.len(), self.current.njoint);
-        match self.mode {
-            ContactRows::Inequality if n > njoint => {
-                // inequality rows: 0 ≤ w = c + A Λ ⟂ Λ ≥ 0 (pushes out only)
-                let equality: Vec<bool> = (0..n).map(|k| k < njoint).collect();
-                let mut z = DVector::zeros(n);
-                solve_mixed_pgs(&a, &self.c, &equality, &mut z, 0.1 * self.tolerance, 10_000);
-                z
-            }
-            _ => EqualitySolver::new(a).solve(&(-&self.c)),
+    fn multipliers(&self, a: &DMatrix<f64>) -> DVector<f64> {
+        let (n, njoint) = (self.current.rows().len(), self.current.njoint);
+        if self.inequality() {
+            // inequality rows: 0 ≤ w = c + A Λ ⟂ Λ ≥ 0 (pushes out only)
+            let equality: Vec<bool> = (0..n).map(|k| k < njoint).collect();
+            let mut z = DVector::zeros(n);
+            solve_mixed_pgs(
+                a,
+                &self.s.c,
+                &equality,
+                &mut z,
+                0.1 * self.tolerance,
+                10_000,
+            );
+            z
+        } else {
+            EqualitySolver::new(a.clone()).solve(&(-&self.s.c))
         }
     }
 
-    /// The Gauss–Newton correction Δν = M⁻¹ Cᵀ Λ.
-    fn gauss_newton(&self) -> DVector<f64> {
-        &self.mct * &self.lambda
+    /// The Gauss–Newton correction Δν = M⁻¹ Cᵀ Λ, into `dnu`.
+    fn gauss_newton(&self, dnu: &mut DVector<f64>) {
+        buffer::fit(dnu, self.s.mct.nrows());
+        self.s.mct.mul_to(&self.s.lambda, dnu);
     }
 
     /// The sequential-quadratic correction Δν = H⁻¹ Cᵀ Λ, H the mass matrix plus, for each
@@ -282,19 +330,20 @@ impl<'a> Linearised<'a> {
     /// for a first-order gain, and the line search crawls. H⁻¹ comes from M⁻¹ by Woodbury's
     /// identity (one row per curved contact), Λ from a few fixed-point passes.
     fn curved(&self, mask: &[bool], minv: &[Matrix6<f64>], ndof: usize) -> Option<DVector<f64>> {
-        let curved = &self.current.curved;
+        let curved = &self.current.of.curved;
         if curved.is_empty() {
             return None;
         }
-        let mut lambda = self.lambda.clone();
+        let mct = &self.s.mct;
+        let mut lambda = self.s.lambda.clone();
         let lateral: Vec<BilateralRow> = curved.iter().map(|c| c.1).collect();
         // C and L as dense matrices for the products with H⁻¹ Cᵀ, built only where this
         // step is tried (the Gauss–Newton step in `new` goes row by row)
-        let (cmat, _) = rows::matrix(&self.current.rows, mask, ndof);
+        let (cmat, _) = rows::matrix(self.current.rows(), mask, ndof);
         let (lmat, _) = rows::matrix(&lateral, mask, ndof);
         let mlt = rows::inverse_mass_times_rows(minv, &lateral, ndof);
         let llt = &lmat * &mlt;
-        let lmct = &lmat * &self.mct;
+        let lmct = &lmat * mct;
         let stiffness = |lambda: &DVector<f64>| -> Vec<f64> {
             curved
                 .iter()
@@ -305,7 +354,7 @@ impl<'a> Linearised<'a> {
         if (0..s.len()).all(|k| s[k] * llt[(k, k)] < CURVATURE_RATIO) {
             return None;
         }
-        let mut hct = self.mct.clone();
+        let mut hct = mct.clone();
         for _ in 0..CURVATURE_PASSES {
             let s = stiffness(&lambda);
             let on: Vec<usize> = (0..s.len()).filter(|&k| s[k] > 0.0).collect();
@@ -318,8 +367,8 @@ impl<'a> Linearised<'a> {
                 schur[(i, i)] += 1.0 / s[k];
             }
             let chol = schur.cholesky()?;
-            hct = &self.mct - mlt.select_columns(&on) * chol.solve(&lmct.select_rows(&on));
-            let next = self.multipliers(&cmat * &hct);
+            hct = mct - mlt.select_columns(&on) * chol.solve(&lmct.select_rows(&on));
+            let next = self.multipliers(&(&cmat * &hct));
             let settled = (&next - &lambda).norm() <= 1e-3 * next.norm();
             lambda = next;
             if settled {
@@ -332,6 +381,69 @@ impl<'a> Linearised<'a> {
 
 /// Step halvings tried before an iteration gives up.
 const MAX_HALVINGS: usize = 8;
+
+/// Steps tried from the poses `from`, whose evaluation has the merit `squares`: each in a
+/// spare `Trial`, handed back when it is not kept.
+struct Steps<'a> {
+    model: &'a Model,
+    t: f64,
+    contacts: ContactRowsAt<'a>,
+    mode: ContactRows,
+    from: &'a [Pose],
+    squares: f64,
+    spare: &'a mut Vec<Trial>,
+}
+
+impl Steps<'_> {
+    /// The poses `from` advanced by α Δν, if they lower the squared violation.
+    fn try_step(&mut self, dnu: &DVector<f64>, alpha: f64) -> Option<Trial> {
+        let mut trial = self.spare.pop().unwrap_or_default();
+        trial.poses.clear();
+        trial
+            .poses
+            .extend(self.from.iter().enumerate().map(|(b, pose)| {
+                let d = alpha * Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
+                if d != Vector6::zeros() {
+                    pose.advanced(&d)
+                } else {
+                    *pose
+                }
+            }));
+        let Trial { poses, evaluated } = &mut trial;
+        evaluated.at(self.model, self.t, poses, self.contacts, self.mode);
+        if evaluated.squares < self.squares {
+            Some(trial)
+        } else {
+            self.spare.push(trial);
+            None
+        }
+    }
+
+    /// The step `dnu` halved from 2⁻ᶠⁱʳˢᵗ on until one lowers the violation.
+    fn line_search(&mut self, dnu: &DVector<f64>, first: usize) -> Option<Trial> {
+        (first..=MAX_HALVINGS).find_map(|k| self.try_step(dnu, 0.5f64.powi(k as i32)))
+    }
+
+    /// Keeps the storage of steps not taken.
+    fn give_back(&mut self, trials: impl IntoIterator<Item = Option<Trial>>) {
+        self.spare.extend(trials.into_iter().flatten());
+    }
+}
+
+/// The projection's storage, kept from one projection to the next on each thread (boxed,
+/// so that taking and returning it moves a pointer). Every entry is written before it is
+/// read.
+#[derive(Default)]
+struct Workspace {
+    spare: Vec<Trial>,
+    linear: LinearStorage,
+    gauss_newton: DVector<f64>,
+}
+
+thread_local! {
+    static WORKSPACE: std::cell::Cell<Option<Box<Workspace>>> =
+        const { std::cell::Cell::new(None) };
+}
 
 /// Projects `poses` at time `t` onto the joints and the contacts `contacts` gives at the
 /// poses it is given.
@@ -363,80 +475,89 @@ pub fn project(
     tolerance: f64,
     max_iterations: usize,
 ) -> ProjectionOutcome {
+    let mut workspace = WORKSPACE.take().unwrap_or_default();
+    let Workspace {
+        spare,
+        linear: storage,
+        gauss_newton,
+    } = &mut *workspace;
     let ndof = 6 * model.bodies.len();
-    let mut current = evaluate_rows(model, t, poses, contacts, mode);
+    let mut current = spare.pop().unwrap_or_default();
+    current.evaluated.at(model, t, poses, contacts, mode);
     let mut out = ProjectionOutcome {
-        violation_before: current.max,
-        violation_after: current.max,
+        violation_before: current.evaluated.max,
+        violation_after: current.evaluated.max,
         ..Default::default()
     };
     for it in 0..=max_iterations {
+        let now = &current.evaluated;
         out.iterations = it;
-        out.violation_after = current.max;
-        out.joint_violation = Some(JointViolation::of(t, &current.rows[..current.njoint]));
-        if current.max <= tolerance {
+        out.violation_after = now.max;
+        out.joint_violation = Some(JointViolation::of(t, &now.rows()[..now.njoint]));
+        if now.max <= tolerance {
             out.converged = true;
-            return out;
+            break;
         }
-        if it == max_iterations || current.rows.is_empty() {
+        if it == max_iterations || now.rows().is_empty() {
             break;
         }
         // the Gauss–Newton step, full or half; where neither does its work and a contact's
         // gap bends sharply across its normal, the sequential-quadratic step in its place,
         // halved as needed
-        let linear = Linearised::new(&current, minv, ndof, mode, tolerance);
-        let gauss_newton = linear.gauss_newton();
+        let linear = Linearised::new(now, minv, ndof, mode, tolerance, storage);
+        linear.gauss_newton(gauss_newton);
         if gauss_newton.iter().any(|x| !x.is_finite()) {
             break;
         }
-        let try_step = |dnu: &DVector<f64>, alpha: f64| {
-            let trial: Vec<Pose> = poses
-                .iter()
-                .enumerate()
-                .map(|(b, pose)| {
-                    let d = alpha * Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
-                    if d != Vector6::zeros() {
-                        pose.advanced(&d)
-                    } else {
-                        *pose
-                    }
-                })
-                .collect();
-            let e = evaluate_rows(model, t, &trial, contacts, mode);
-            (e.squares < current.squares).then_some((e, trial))
+        let mut steps = Steps {
+            model,
+            t,
+            contacts,
+            mode,
+            from: poses,
+            squares: now.squares,
+            spare,
         };
         // a step that at least halves the squared violation (the linear model promises it
         // falls to nothing, a quarter for the half step) is kept outright: the
         // linearisation holds on its scale
-        let halves = |step: &Option<(Evaluated, Vec<Pose>)>| {
+        let halves = |step: &Option<Trial>| {
             step.as_ref()
-                .is_some_and(|(e, _)| e.squares <= 0.5 * current.squares)
+                .is_some_and(|s| s.evaluated.squares <= 0.5 * now.squares)
         };
-        // the step `dnu` halved from 2⁻ᶠⁱʳˢᵗ on until one lowers the violation
-        let line_search = |dnu: &DVector<f64>, first: usize| {
-            (first..=MAX_HALVINGS).find_map(|k| try_step(dnu, 0.5f64.powi(k as i32)))
-        };
-        let full = try_step(&gauss_newton, 1.0);
+        let full = steps.try_step(gauss_newton, 1.0);
         let accepted = if halves(&full) {
             full
         } else {
-            let half = try_step(&gauss_newton, 0.5);
+            let half = steps.try_step(gauss_newton, 0.5);
             if halves(&half) {
+                steps.give_back([full]);
                 half
             } else {
-                linear
+                let quadratic = linear
                     .curved(mask, minv, ndof)
                     .filter(|d| d.iter().all(|x| x.is_finite()))
-                    .and_then(|d| line_search(&d, 0))
-                    .or(full)
-                    .or(half)
-                    .or_else(|| line_search(&gauss_newton, 2))
+                    .and_then(|d| steps.line_search(&d, 0));
+                match (quadratic, full, half) {
+                    (Some(q), full, half) => {
+                        steps.give_back([full, half]);
+                        Some(q)
+                    }
+                    (None, Some(full), half) => {
+                        steps.give_back([half]);
+                        Some(full)
+                    }
+                    (None, None, Some(half)) => Some(half),
+                    (None, None, None) => steps.line_search(gauss_newton, 2),
+                }
             }
         };
-        let Some((next, trial)) = accepted else { break };
-        poses.copy_from_slice(&trial);
-        current = next;
+        let Some(next) = accepted else { break };
+        poses.copy_from_slice(&next.poses);
+        spare.push(std::mem::replace(&mut current, next));
     }
+    spare.push(current);
+    WORKSPACE.set(Some(workspace));
     out
 }
 
@@ -459,5 +580,100 @@ fn contact_row(
         value,
         rate: 0.0,
         unit: RowUnit::Length,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    /// The driven four-bar (a closed loop: its 21 joint rows are redundant), knocked off
+    /// its assembly, comes back onto its joints: to the tolerance, no farther from the
+    /// knocked poses than the assembly is (the projection finds the nearest admissible
+    /// poses in the mass metric), and bit for bit the same on a fresh thread and on one
+    /// whose storage holds NaNs from a larger problem.
+    #[test]
+    fn a_projection_reads_nothing_an_earlier_one_left() {
+        let sim = Scene::bundled_simulation("four-bar");
+        let (t, assembled) = (sim.state.t, sim.state.poses.clone());
+        let knocked: Vec<Pose> = assembled
+            .iter()
+            .enumerate()
+            .map(|(b, q)| Pose {
+                x: q.x + Vector3::new(1e-3, -2e-3, 5e-4) * (b + 1) as f64,
+                p: UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)) * q.p,
+            })
+            .collect();
+        let tolerance = sim.params.projection_tolerance;
+        let project_on = |poison: bool| {
+            let (sim, mut poses) = (sim.clone(), knocked.clone());
+            std::thread::spawn(move || {
+                if poison {
+                    let nan = f64::NAN;
+                    let row = BilateralRow {
+                        a: Some((0, RowVector6::from_element(nan))),
+                        b: None,
+                        value: nan,
+                        rate: nan,
+                        unit: RowUnit::Length,
+                    };
+                    let trial = || Trial {
+                        poses: vec![Pose::identity(); 9],
+                        evaluated: Evaluated {
+                            of: ContactRowsOf {
+                                rows: vec![row; 40],
+                                curved: vec![(3, row, nan)],
+                            },
+                            njoint: 7,
+                            max: nan,
+                            squares: nan,
+                        },
+                    };
+                    WORKSPACE.set(Some(Box::new(Workspace {
+                        spare: (0..3).map(|_| trial()).collect(),
+                        linear: LinearStorage {
+                            mct: DMatrix::from_element(54, 40, nan),
+                            c: DVector::from_element(40, nan),
+                            lambda: DVector::from_element(40, nan),
+                            solver: EqualitySolver::new(DMatrix::from_element(40, 40, nan)),
+                            work: vec![nan; 120],
+                        },
+                        gauss_newton: DVector::from_element(54, nan),
+                    })));
+                }
+                let out = project(
+                    &sim.model,
+                    &sim.mask,
+                    &sim.minv,
+                    t,
+                    &mut poses,
+                    &|_, _| {},
+                    ContactRows::Equality,
+                    tolerance,
+                    20,
+                );
+                (out, poses)
+            })
+            .join()
+            .unwrap()
+        };
+        let (out, poses) = project_on(false);
+        assert!(out.converged && out.iterations >= 2, "{out:?}");
+        assert!(out.violation_before > 1e-3, "{out:?}");
+        let after = JointViolation::of(t, &sim.model.joint_rows(t, &poses));
+        assert!(
+            after.length <= tolerance && after.angle <= tolerance,
+            "{after:?}"
+        );
+        let moved = mass_distance(&sim.model, &knocked, &poses);
+        assert!(
+            moved <= mass_distance(&sim.model, &knocked, &assembled),
+            "{moved}"
+        );
+        let (out2, poses2) = project_on(true);
+        assert_eq!(out, out2);
+        assert_eq!(poses, poses2);
     }
 }

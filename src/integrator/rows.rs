@@ -3,6 +3,7 @@
 //! 6-blocks only: a mechanism's rows cost what its joints cost, not rows × degrees of
 //! freedom.
 
+use crate::math::buffer;
 use crate::mechanics::joint::BilateralRow;
 use nalgebra::{DMatrix, DVector, Matrix6, RowVector6};
 
@@ -37,14 +38,25 @@ pub fn inverse_mass_times_rows(
     rows: &[BilateralRow],
     ndof: usize,
 ) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(ndof, rows.len());
+    let mut out = DMatrix::zeros(0, 0);
+    inverse_mass_times_rows_into(minv, rows, ndof, &mut out);
+    out
+}
+
+/// `inverse_mass_times_rows` into `out`, in its storage.
+pub fn inverse_mass_times_rows_into(
+    minv: &[Matrix6<f64>],
+    rows: &[BilateralRow],
+    ndof: usize,
+    out: &mut DMatrix<f64>,
+) {
+    buffer::zeros_matrix(out, ndof, rows.len());
     for (k, row) in rows.iter().enumerate() {
         for (b, g) in blocks(row) {
             let mut col = out.fixed_view_mut::<6, 1>(6 * b, k);
             col += minv[*b] * g.transpose();
         }
     }
-    out
 }
 
 /// Zeroes the held degrees of freedom (`mask` false) in the rows' blocks: what the dense

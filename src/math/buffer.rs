@@ -1,23 +1,30 @@
-//! Vectors kept from one step to the next (a solver's or a step's scratch): sized and
-//! filled in their own storage, which is allocated again only when the length changes.
+//! Vectors and matrices kept from one step to the next (a solver's or a step's scratch):
+//! sized and filled in their own storage, which is allocated again only when it grows.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
-/// Gives `buf` the length `n`, keeping its storage (and entries) when it has that length
-/// already: for a caller that writes every entry next.
+/// Gives `buf` the length `n`, keeping its entries when it has that length already: for a
+/// caller that writes every entry next.
 pub fn fit(buf: &mut DVector<f64>, n: usize) {
     if buf.len() != n {
-        *buf = DVector::zeros(n);
+        zeros(buf, n);
     }
 }
 
 /// Sets `buf` to `n` zeros.
 pub fn zeros(buf: &mut DVector<f64>, n: usize) {
-    if buf.len() == n {
-        buf.as_mut_slice().fill(0.0);
-    } else {
-        *buf = DVector::zeros(n);
-    }
+    let mut data: Vec<f64> = std::mem::replace(buf, DVector::zeros(0)).data.into();
+    data.clear();
+    data.resize(n, 0.0);
+    *buf = DVector::from_vec(data);
+}
+
+/// Sets `buf` to the `rows` × `cols` zero matrix.
+pub fn zeros_matrix(buf: &mut DMatrix<f64>, rows: usize, cols: usize) {
+    let mut data: Vec<f64> = std::mem::replace(buf, DMatrix::zeros(0, 0)).data.into();
+    data.clear();
+    data.resize(rows * cols, 0.0);
+    *buf = DMatrix::from_vec(rows, cols, data);
 }
 
 /// Copies `src` into `dst`.
@@ -30,7 +37,7 @@ pub fn copy_into(dst: &mut DVector<f64>, src: &DVector<f64>) {
 mod tests {
     use super::*;
 
-    /// Each keeps the storage of a vector of the right length and resizes one of another.
+    /// Each keeps the storage of a buffer that is large enough and resizes one that is not.
     #[test]
     fn buffers_are_sized_and_filled() {
         let mut buf = DVector::from_element(3, f64::NAN);
@@ -48,6 +55,12 @@ mod tests {
         fit(&mut buf, 4);
         assert_eq!((buf.as_ptr(), buf[3]), (at, 8.0));
         fit(&mut buf, 1);
-        assert_eq!(buf.len(), 1);
+        assert_eq!((buf.as_ptr(), buf.as_slice()), (at, &[0.0][..]));
+        let mut m = DMatrix::from_element(3, 2, f64::NAN);
+        let at = m.as_ptr();
+        zeros_matrix(&mut m, 2, 2);
+        assert_eq!((m.as_ptr(), &m), (at, &DMatrix::zeros(2, 2)));
+        zeros_matrix(&mut m, 4, 3);
+        assert_eq!(m, DMatrix::zeros(4, 3));
     }
 }

@@ -4,6 +4,7 @@
 //! position projection.
 
 use super::lu::Lu;
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector};
 
 /// Relative regularisation added to the diagonal: redundant constraints (closed loops)
@@ -41,12 +42,13 @@ impl EqualitySolver {
     /// The n × n matrix A, zeroed, to be formed in place and then factorised with
     /// `factorise` (its storage, and that of the factors, kept from one system to the next).
     pub fn zeroed(&mut self, n: usize) -> &mut DMatrix<f64> {
-        if self.a.shape() == (n, n) {
-            self.a.as_mut_slice().fill(0.0);
-        } else {
-            self.a = DMatrix::zeros(n, n);
-        }
+        buffer::zeros_matrix(&mut self.a, n, n);
         &mut self.a
+    }
+
+    /// A, as formed.
+    pub fn matrix(&self) -> &DMatrix<f64> {
+        &self.a
     }
 
     /// Factorises A, regularised.
