@@ -280,50 +280,65 @@ impl Joint {
     pub fn rows(&self, t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>) {
         let pa = pose_of(self.a, poses);
         let pb = pose_of(self.b, poses);
-        let ra = pa.p.to_rotation_matrix().into_inner();
-        let rb = pb.p.to_rotation_matrix().into_inner();
         let xa = pa.point(&self.anchor_a);
         let xb = pb.point(&self.anchor_b);
         let d = xb - xa;
-        let lever_a = skew(&(xa - pa.x)) * ra;
-        let lever_b = skew(&(xb - pb.x)) * rb;
-        let a = self.a;
-        let b = self.b;
-        let row =
-            |ga: RowVector6<f64>, gb: RowVector6<f64>, value: f64, rate: f64, unit: RowUnit| {
-                BilateralRow {
-                    a: a.map(|i| (i, ga)),
-                    b: b.map(|i| (i, gb)),
-                    value,
-                    rate,
-                    unit,
-                }
-            };
+        // each body's rotation and the lever of its anchor; the ground has no blocks
+        let frame = |r: BodyRef, pose: &Pose, x: &Vector3<f64>| {
+            r.map(|i| {
+                let rot = pose.p.to_rotation_matrix().into_inner();
+                (i, rot, skew(&(x - pose.x)) * rot)
+            })
+        };
+        let on_a = frame(self.a, &pa, &xa);
+        let on_b = frame(self.b, &pb, &xb);
+        let row = |a: Option<(usize, RowVector6<f64>)>,
+                   b: Option<(usize, RowVector6<f64>)>,
+                   value: f64,
+                   unit: RowUnit| BilateralRow {
+            a,
+            b,
+            value,
+            rate: 0.0,
+            unit,
+        };
         // e·(x_b − x_a) for a world direction e carried by a (fixed = false) or the ground
         let translation = |e: Vector3<f64>, carried_by_a: bool| {
-            let mut ga = RowVector6::zeros();
-            let mut gb = RowVector6::zeros();
-            gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
-            gb.fixed_columns_mut::<3>(3)
-                .copy_from(&(-e.transpose() * lever_b));
-            ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
-            let mut rot = e.transpose() * lever_a;
-            if carried_by_a {
-                rot += e.cross(&d).transpose() * ra;
-            }
-            ga.fixed_columns_mut::<3>(3).copy_from(&rot);
-            row(ga, gb, e.dot(&d), 0.0, RowUnit::Length)
+            let gb = on_b.map(|(i, _, lever_b)| {
+                let mut gb = RowVector6::zeros();
+                gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
+                gb.fixed_columns_mut::<3>(3)
+                    .copy_from(&(-e.transpose() * lever_b));
+                (i, gb)
+            });
+            let ga = on_a.map(|(i, ra, lever_a)| {
+                let mut ga = RowVector6::zeros();
+                ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
+                let mut rot = e.transpose() * lever_a;
+                if carried_by_a {
+                    rot += e.cross(&d).transpose() * ra;
+                }
+                ga.fixed_columns_mut::<3>(3).copy_from(&rot);
+                (i, ga)
+            });
+            row(ga, gb, e.dot(&d), RowUnit::Length)
         };
         // x·y with x = R_a X (on a), y = R_b Y (on b): ḣ = (ω_b − ω_a)·(y × x)
         let angular = |x: Vector3<f64>, y: Vector3<f64>| {
             let c = y.cross(&x);
-            let mut ga = RowVector6::zeros();
-            let mut gb = RowVector6::zeros();
-            gb.fixed_columns_mut::<3>(3)
-                .copy_from(&(c.transpose() * rb));
-            ga.fixed_columns_mut::<3>(3)
-                .copy_from(&(-c.transpose() * ra));
-            row(ga, gb, x.dot(&y), 0.0, RowUnit::Angle)
+            let gb = on_b.map(|(i, rb, _)| {
+                let mut gb = RowVector6::zeros();
+                gb.fixed_columns_mut::<3>(3)
+                    .copy_from(&(c.transpose() * rb));
+                (i, gb)
+            });
+            let ga = on_a.map(|(i, ra, _)| {
+                let mut ga = RowVector6::zeros();
+                ga.fixed_columns_mut::<3>(3)
+                    .copy_from(&(-c.transpose() * ra));
+                (i, ga)
+            });
+            row(ga, gb, x.dot(&y), RowUnit::Angle)
         };
         // a's two perpendiculars in the world, turned once, for every kind but the
         // spherical joint, which does not use them
