@@ -12,9 +12,9 @@
 
 use crate::math::skew;
 use crate::mechanics::body::Twist;
+use crate::mechanics::force::RotationBlock;
 use crate::mechanics::{Model, Pose};
-use nalgebra::{DMatrix, DVector, Dyn, Matrix3, Matrix6, SMatrix, StorageMut, Vector};
-use std::collections::BTreeMap;
+use nalgebra::{DMatrix, DVector, Dyn, Matrix6, SMatrix, StorageMut, Vector};
 
 /// Relative finite-difference step for force-element Jacobians.
 const FD_STEP: f64 = 1e-6;
@@ -110,6 +110,26 @@ pub struct IterationMatrix {
     group_of: Vec<usize>,
     /// Each body's diagonal block of W, while it is assembled.
     diag: Vec<Matrix6<f64>>,
+    /// W's nonzero off-diagonal blocks ((row body, column body), block), while it is
+    /// assembled, and a force element's closed-form Jacobian blocks.
+    off: Vec<((usize, usize), Matrix6<f64>)>,
+    jacobian: Vec<RotationBlock>,
+}
+
+/// The off-diagonal block (x, y) of `off`, added as zeros if it is not there yet.
+fn off_block(
+    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+    x: usize,
+    y: usize,
+) -> &mut Matrix6<f64> {
+    let k = match off.iter().position(|(key, _)| *key == (x, y)) {
+        Some(k) => k,
+        None => {
+            off.push(((x, y), Matrix6::zeros()));
+            off.len() - 1
+        }
+    };
+    &mut off[k].1
 }
 
 /// Scratch space of the finite differences: the force buffers of the two perturbations
@@ -165,7 +185,9 @@ impl IterationMatrix {
         let mut diag = std::mem::take(&mut self.diag);
         diag.clear();
         diag.resize(n, Matrix6::zeros());
-        let mut off: BTreeMap<(usize, usize), Matrix6<f64>> = BTreeMap::new();
+        let mut off = std::mem::take(&mut self.off);
+        off.clear();
+        let mut jacobian = std::mem::take(&mut self.jacobian);
         let damped = 1.0 + h * theta * damping;
         for (i, b) in model.bodies.iter().enumerate() {
             let d = &mut diag[i];
@@ -179,11 +201,10 @@ impl IterationMatrix {
             let mut rot = d.fixed_view_mut::<3, 3>(3, 3);
             rot += gyro * (h * theta);
         }
-        let stiff: Vec<_> = model
+        let stiff = model
             .forces
             .iter()
-            .filter(|f| f.depends_on_pose() || f.depends_on_velocity())
-            .collect();
+            .filter(|f| f.depends_on_pose() || f.depends_on_velocity());
         let twists = v.as_slice();
         // force buffers and perturbed copies of the state (restored after each difference),
         // made on the first finite difference
@@ -191,14 +212,14 @@ impl IterationMatrix {
         let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
         // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
         let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
-                                   off: &mut BTreeMap<(usize, usize), Matrix6<f64>>,
-                                   blocks: Vec<(usize, usize, Matrix3<f64>)>,
+                                   off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+                                   blocks: &[RotationBlock],
                                    weight: f64| {
-            for (x, y, d) in blocks.into_iter().filter(|b| moving(b.0) && moving(b.1)) {
+            for &(x, y, d) in blocks.iter().filter(|b| moving(b.0) && moving(b.1)) {
                 let blk = if x == y {
                     &mut diag[x]
                 } else {
-                    off.entry((x, y)).or_insert_with(Matrix6::zeros)
+                    off_block(off, x, y)
                 };
                 let mut rot = blk.fixed_view_mut::<3, 3>(3, 3);
                 rot -= d * weight;
@@ -207,17 +228,13 @@ impl IterationMatrix {
         for f in stiff {
             let mut by_pose = f.depends_on_pose();
             let mut by_vel = f.depends_on_velocity();
-            if by_vel {
-                if let Some(blocks) = f.damping_jacobian(poses) {
-                    add_rotation_blocks(&mut diag, &mut off, blocks, h * theta);
-                    by_vel = false;
-                }
+            if by_vel && f.damping_jacobian(poses, &mut jacobian) {
+                add_rotation_blocks(&mut diag, &mut off, &jacobian, h * theta);
+                by_vel = false;
             }
-            if by_pose {
-                if let Some(blocks) = f.stiffness_jacobian(t, poses, twists) {
-                    add_rotation_blocks(&mut diag, &mut off, blocks, h * h * theta * theta);
-                    by_pose = false;
-                }
+            if by_pose && f.stiffness_jacobian(t, poses, twists, &mut jacobian) {
+                add_rotation_blocks(&mut diag, &mut off, &jacobian, h * h * theta * theta);
+                by_pose = false;
             }
             if !by_pose && !by_vel {
                 continue;
@@ -274,7 +291,7 @@ impl IterationMatrix {
                             let blk = if c == b {
                                 &mut diag[c]
                             } else {
-                                off.entry((c, b)).or_insert_with(Matrix6::zeros)
+                                off_block(&mut off, c, b)
                             };
                             blk.column_mut(k).add_assign(&col);
                         }
@@ -303,11 +320,11 @@ impl IterationMatrix {
                     inverse: inverse6(*d),
                 }));
             self.group_of.extend(0..n);
-            self.diag = diag;
+            (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
             return;
         }
         // the groups in order of their first body
-        let roots = component_roots(n, off.keys().copied());
+        let roots = component_roots(n, off.iter().map(|(key, _)| *key));
         let mut size = vec![0usize; n];
         roots.iter().for_each(|&r| size[r] += 1);
         let groups = &mut self.groups;
@@ -332,7 +349,7 @@ impl IterationMatrix {
                         let block = if i == j {
                             Some(diag[i])
                         } else {
-                            off.get(&(i, j)).map(|m| {
+                            off.iter().find(|(key, _)| *key == (i, j)).map(|(_, m)| {
                                 let mut m = *m;
                                 clamp(&mut m, i, j);
                                 m
@@ -350,7 +367,7 @@ impl IterationMatrix {
             };
             groups.push(group);
         }
-        self.diag = diag;
+        (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
     }
 
     /// W⁻¹ rhs (held dofs give zero).

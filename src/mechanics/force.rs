@@ -7,6 +7,10 @@ use super::body::{BodyRef, Pose, Twist};
 use crate::math::{any_orthogonal, skew};
 use nalgebra::{Matrix3, Vector3};
 
+/// A block of a force element's Jacobian: (body x, body y, ∂τ_x/∂(δ or ω)_y), the
+/// body-frame torque on x against a body-frame rotation increment or angular velocity of y.
+pub type RotationBlock = (usize, usize, Matrix3<f64>);
+
 /// A vector that is constant or a piecewise-linear function of time (clamped at both ends).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Profile {
@@ -238,14 +242,17 @@ impl Force {
     /// and its axis does not depend on them, so the blocks are exact: with n_a, n_b the axis
     /// in each body's frame, aa = −c n_a n_aᵀ, ab = c n_a n_bᵀ, ba = c n_b n_aᵀ,
     /// bb = −c n_b n_bᵀ.
-    pub fn damping_jacobian(&self, poses: &[Pose]) -> Option<Vec<(usize, usize, Matrix3<f64>)>> {
+    /// The blocks replace `out`'s entries; false (and `out` untouched) where the element
+    /// has no closed form.
+    pub fn damping_jacobian(&self, poses: &[Pose], out: &mut Vec<RotationBlock>) -> bool {
         let Force::Torsional(s) = self else {
-            return None;
+            return false;
         };
         let (_, n) = s.angle(poses);
         let local = |r: BodyRef| r.map(|i| (i, poses[i].p.inverse_transform_vector(&n)));
         let ends = [(local(s.a), -1.0), (local(s.b), 1.0)];
-        let mut blocks = Vec::with_capacity(4);
+        let blocks = out;
+        blocks.clear();
         // τ_a = +n m and τ_b = −n m with m ∋ c n·(ω_b − ω_a): sign(x) sign(y) = −(±)(±)
         for &(x, sx) in &ends {
             for &(y, sy) in &ends {
@@ -254,7 +261,7 @@ impl Force {
                 }
             }
         }
-        Some(blocks)
+        true
     }
 
     /// The stiffness in closed form, where the element has one: each (body x, body y,
@@ -269,14 +276,17 @@ impl Force {
     ///   ∂n_b/∂δ_b = [n_b]×, ∂n_b/∂δ_a = −R_bᵀ [n]× R_a.
     ///
     /// It replaces 6 to 12 evaluations of the wrench by finite differences per assembly.
+    /// The blocks replace `out`'s entries; false (and `out` untouched) where the element
+    /// has no closed form.
     pub fn stiffness_jacobian(
         &self,
         t: f64,
         poses: &[Pose],
         twists: &[f64],
-    ) -> Option<Vec<(usize, usize, Matrix3<f64>)>> {
+        out: &mut Vec<RotationBlock>,
+    ) -> bool {
         let Force::Torsional(s) = self else {
-            return None;
+            return false;
         };
         let (pa, pb) = (pose_of(s.a, poses), pose_of(s.b, poses));
         let (rot_a, rot_b) = (
@@ -301,7 +311,8 @@ impl Force {
         let dm_a = rot_a.transpose() * (dphi_a * s.stiffness + drate_a * s.damping);
         let dm_b = rot_b.transpose() * (dphi_b * s.stiffness + drate_b * s.damping);
         let n_b = rot_b.transpose() * n;
-        let mut blocks = Vec::with_capacity(4);
+        let blocks = out;
+        blocks.clear();
         if let Some(i) = s.a {
             blocks.push((i, i, s.axis_a * dm_a.transpose()));
             if let Some(j) = s.b {
@@ -318,7 +329,7 @@ impl Force {
             }
             blocks.push((j, j, -n_b * dm_b.transpose() - skew(&n_b) * moment));
         }
-        Some(blocks)
+        true
     }
 
     /// Adds the element's generalized wrench at time `t` to `out`, given the generalized
@@ -573,9 +584,11 @@ mod tests {
             spring.ramp = 2.0;
             let f = Force::Torsional(spring);
             let t = 0.5;
-            let blocks = f
-                .stiffness_jacobian(t, &poses, &twists)
-                .expect("a spring has one");
+            let mut blocks = Vec::new();
+            assert!(
+                f.stiffness_jacobian(t, &poses, &twists, &mut blocks),
+                "a spring has one"
+            );
             assert_eq!(blocks.len(), if a.is_some() { 4 } else { 1 });
             let mut largest: f64 = 0.0;
             for (x, y, d) in blocks {
@@ -601,9 +614,7 @@ mod tests {
                 "the blocks are not trivially zero: {largest}"
             );
         }
-        assert!(constant_load()
-            .stiffness_jacobian(0.0, &poses, &twists)
-            .is_none());
+        assert!(!constant_load().stiffness_jacobian(0.0, &poses, &twists, &mut Vec::new()));
     }
 
     /// The torsional damper's closed-form velocity Jacobian matches central differences of
@@ -614,7 +625,8 @@ mod tests {
         let poses = tilted_poses();
         let f = Force::Torsional(tilted_spring(Some(0), &poses, 0.0));
         let twists = SPINNING;
-        let blocks = f.damping_jacobian(&poses).expect("a damper has one");
+        let mut blocks = Vec::new();
+        assert!(f.damping_jacobian(&poses, &mut blocks), "a damper has one");
         assert_eq!(blocks.len(), 4);
         for (x, y, d) in blocks {
             for k in 0..3 {
@@ -632,6 +644,6 @@ mod tests {
             }
         }
         // other elements have none
-        assert!(constant_load().damping_jacobian(&poses).is_none());
+        assert!(!constant_load().damping_jacobian(&poses, &mut Vec::new()));
     }
 }
