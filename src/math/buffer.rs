@@ -13,18 +13,32 @@ pub fn fit(buf: &mut DVector<f64>, n: usize) {
 
 /// Sets `buf` to `n` zeros.
 pub fn zeros(buf: &mut DVector<f64>, n: usize) {
-    let mut data: Vec<f64> = std::mem::replace(buf, DVector::zeros(0)).data.into();
-    data.clear();
-    data.resize(n, 0.0);
-    *buf = DVector::from_vec(data);
+    if buf.len() == n {
+        buf.as_mut_slice().fill(0.0);
+    } else {
+        let data = resized(std::mem::replace(buf, DVector::zeros(0)).data.into(), n);
+        *buf = DVector::from_vec(data);
+    }
 }
 
 /// Sets `buf` to the `rows` × `cols` zero matrix.
 pub fn zeros_matrix(buf: &mut DMatrix<f64>, rows: usize, cols: usize) {
-    let mut data: Vec<f64> = std::mem::replace(buf, DMatrix::zeros(0, 0)).data.into();
+    if buf.shape() == (rows, cols) {
+        buf.as_mut_slice().fill(0.0);
+    } else {
+        let data = resized(
+            std::mem::replace(buf, DMatrix::zeros(0, 0)).data.into(),
+            rows * cols,
+        );
+        *buf = DMatrix::from_vec(rows, cols, data);
+    }
+}
+
+/// `n` zeros in the storage of `data`.
+fn resized(mut data: Vec<f64>, n: usize) -> Vec<f64> {
     data.clear();
-    data.resize(rows * cols, 0.0);
-    *buf = DMatrix::from_vec(rows, cols, data);
+    data.resize(n, 0.0);
+    data
 }
 
 /// Copies `src` into `dst`.
