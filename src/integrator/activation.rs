@@ -19,6 +19,24 @@ const GUARD_DEPTH: f64 = 0.5;
 /// Normal speed (m/s) below which a pressed contact counts as staying closed.
 const SEPARATION_SPEED: f64 = 1e-9;
 
+/// The activation loop's lists, kept from one step to the next on each thread (boxed, so
+/// that taking and returning them moves a pointer). Each is cleared before it is filled.
+#[derive(Default)]
+struct Lists {
+    /// Per candidate: in the velocity problem; closed at the step's end.
+    in_active: Vec<bool>,
+    closed: Vec<bool>,
+    /// Per ring crossed, its most crossed guard: (ring, candidate, gap).
+    worst: Vec<(usize, usize, f64)>,
+    /// The active contacts the projection takes, and the candidates that closed.
+    pool: Vec<usize>,
+    new: Vec<usize>,
+}
+
+thread_local! {
+    static LISTS: std::cell::Cell<Option<Box<Lists>>> = const { std::cell::Cell::new(None) };
+}
+
 impl Simulation {
     /// The combined projection + activation loop (docs/method.md), started from the
     /// previous step's active set (kept while pressed or closed; guards are not kept, they
@@ -35,16 +53,25 @@ impl Simulation {
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
         let (mut last, mut settled) = (None, false);
+        let mut lists = LISTS.take().unwrap_or_default();
+        let Lists {
+            in_active,
+            closed,
+            worst,
+            pool,
+            new,
+        } = &mut *lists;
         for pass in 1..=p.max_active_set_passes {
             let vs = self.velocity(&active);
-            let mut in_active = vec![false; self.points.len()];
+            in_active.clear();
+            in_active.resize(self.points.len(), false);
             active.iter().for_each(|&i| in_active[i] = true);
             // A guard whose linearised end-of-step gap g + h u_N,θ is negative marks a step
             // that carries the journal across its clearance: put the most crossed guard of
             // each such ring in the velocity problem and solve again (the guards are far from
             // contact otherwise, so this never happens while h·v stays below the clearance).
             // One per ring and pass keeps the problem small and its Delassus matrix regular.
-            let mut worst: Vec<(usize, usize, f64)> = Vec::new(); // (ring, candidate, gap)
+            worst.clear();
             for (i, ring) in self.guard_ring.iter().enumerate() {
                 let Some(ring) = *ring else { continue };
                 if in_active[i] {
@@ -62,9 +89,8 @@ impl Simulation {
                     }
                 }
             }
-            let crossing: Vec<usize> = worst.iter().map(|w| w.1).collect();
-            if !crossing.is_empty() && pass < p.max_active_set_passes {
-                active.extend(crossing);
+            if !worst.is_empty() && pass < p.max_active_set_passes {
+                active.extend(worst.iter().map(|w| w.1));
                 active.sort_unstable();
                 continue;
             }
@@ -74,7 +100,8 @@ impl Simulation {
             // rebounds (e > 0) and ended with g > 0 is left where it is: pulling it down onto
             // the surface (as Siconos' combined scheme does with every active contact) throws
             // away m g·g of energy per impact, 60 % at e = 1 and h = 0.05 on the ball.
-            let mut closed = vec![false; self.points.len()];
+            closed.clear();
+            closed.resize(self.points.len(), false);
             for (k, &i) in active.iter().enumerate() {
                 let c = &self.points[i];
                 let u0 = c.local_velocity(self.state.v.as_slice()).x;
@@ -82,25 +109,26 @@ impl Simulation {
                 closed[i] =
                     vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
             }
-            let pool: Vec<usize> = active
-                .iter()
-                .copied()
-                .filter(|&i| self.guard_ring[i].is_none())
-                .collect();
+            pool.clear();
+            pool.extend(
+                active
+                    .iter()
+                    .copied()
+                    .filter(|&i| self.guard_ring[i].is_none()),
+            );
+            let closed = &*closed;
             let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
-            // (a mechanism without joints and contacts has nothing to project)
-            let trial = (!self.model.joints.is_empty() || !pool.is_empty()).then(|| poses.clone());
             let mut pool_points;
             (report.projection, pool_points) =
-                self.project_poses(&mut poses, &pool, &selected, ContactRows::Equality);
+                self.project_poses(&mut poses, pool, &selected, ContactRows::Equality);
             // Held shut together, the closed contacts may admit no poses near the trial (a
             // tilted journal pressed on one flange and held at the other, 45 µm open, by
             // the last step's impulse): then let every active contact open, g ≥ 0, which
-            // the start of the step satisfies.
-            if let (false, Some(trial)) = (report.projection.converged, trial) {
-                poses = trial;
+            // the start of the step satisfies, from the trial poses again.
+            if !report.projection.converged {
+                poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
                 (report.projection, pool_points) =
-                    self.project_poses(&mut poses, &pool, &|_, _| true, ContactRows::Inequality);
+                    self.project_poses(&mut poses, pool, &|_, _| true, ContactRows::Inequality);
             }
             report.active_set_passes = pass;
             // activation from the end-of-step position (the pool's pair contacts and joint
@@ -112,9 +140,11 @@ impl Simulation {
             let mut after = Vec::new();
             self.model
                 .evaluate_selected_knowing(&poses, &self.candidates, known, &mut after);
-            let new: Vec<usize> = (0..after.len())
-                .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0)
-                .collect();
+            new.clear();
+            new.extend(
+                (0..after.len())
+                    .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0),
+            );
             if new.is_empty() {
                 settled = true;
                 last = Some((active, vs, poses, after));
@@ -130,9 +160,10 @@ impl Simulation {
                     && self.points[i].local_velocity(self.state.v.as_slice()).x >= 0.0,
             }));
             last = Some((active.clone(), vs, poses, after));
-            active.extend(new);
+            active.extend(new.iter().copied());
             active.sort_unstable();
         }
+        LISTS.set(Some(lists));
         // an active set that did not settle within the allowed passes keeps the last pass,
         // flagged
         report.projection.converged &= settled;

@@ -36,11 +36,11 @@ pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
 /// impact with e = 1 keep the kinetic energy and one with e < 1 lose it, at any step.
 pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
-    pub persistent: Vec<usize>,
+    pub persistent: &'a [usize],
     /// Those of them whose normal can turn over a step, the ones evaluated at mid-step and
     /// at the end: a contact on a plane that cannot turn keeps its start rows, as any
     /// contact whose normal does not turn does, without being evaluated to find that out.
-    pub turning: Vec<usize>,
+    pub turning: &'a [usize],
     /// The active contacts at positions `which` evaluated at the given poses, in order.
     pub at: ContactsAt<'a>,
 }
@@ -352,8 +352,8 @@ pub fn velocity_step(
             advance_poses_into(mid, poses, v0, &v, 0.5 * h, 0.5);
         }
         if let (Some(c), 0) = (turning, iterations - 1) {
-            let at_mid = (c.at)(mid, &c.turning);
-            let at_end = (c.at)(poses1, &c.turning);
+            let at_mid = (c.at)(mid, c.turning);
+            let at_end = (c.at)(poses1, c.turning);
             for (k, &a) in c.turning.iter().enumerate() {
                 // a normal that does not turn over the step keeps the start rows (and the
                 // Delassus matrix symmetric, which the solver's sweeps need to converge

@@ -3,7 +3,9 @@
 //! problem alone cannot tell how much of an equal and opposite pair of impulses they carry.
 
 use super::simulation::Simulation;
+use crate::mechanics::body::BodyRef;
 use crate::mechanics::ContactPoint;
+use nalgebra::Vector3;
 
 /// Normals at least this close to antiparallel face each other (2.6°).
 const FACING_COS: f64 = -0.999;
@@ -11,7 +13,7 @@ const FACING_COS: f64 = -0.999;
 impl Simulation {
     /// Per contact of `active`, whether it stays out of the velocity problem: it faces
     /// another active contact of the same two bodies, and the step's forecast
-    /// g + γ h u_N,k opens it, and opens it more than that contact.
+    /// g + γ h u_N,k opens it, and opens it more than that contact. `None` where none does.
     ///
     /// A step that carries a part across its play in a slot (a journal leaving one flange
     /// and striking the other) has both walls active: the one it leaves, pressed in the
@@ -24,7 +26,7 @@ impl Simulation {
     /// part back onto it after all, the activation and the projection see it at the step's
     /// end, as any other contact. Walls pressed from both sides (forecasts within the
     /// activation margin) both stay.
-    pub(super) fn behind_opposed(&self, active: &[usize]) -> Vec<bool> {
+    pub(super) fn behind_opposed(&self, active: &[usize]) -> Option<Vec<bool>> {
         let p = self.step_params();
         let v0 = self.state.v.as_slice();
         // the normal oriented from the body of higher index to the lower, and that pair
@@ -33,25 +35,36 @@ impl Simulation {
             let n = c.normal();
             (bodies, if bodies.0 == c.body1 { n } else { -n })
         };
-        let facing: Vec<Option<_>> = active
+        let mut facing = FACING.take();
+        facing.clear();
+        facing.extend(active.iter().map(|&i| {
+            let c = &self.points[i];
+            (!self.is_guard(i) && !c.gap_law).then(|| (oriented(c), p.forecast(c, v0)))
+        }));
+        let behind = |me: &Option<Facing>| {
+            let Some(((bodies, n), f)) = *me else {
+                return false;
+            };
+            f > p.activation_margin
+                && facing
+                    .iter()
+                    .flatten()
+                    .any(|&((other, m), g)| other == bodies && n.dot(&m) < FACING_COS && g < f)
+        };
+        let dropped = facing
             .iter()
-            .map(|&i| {
-                let c = &self.points[i];
-                (!self.is_guard(i) && !c.gap_law).then(|| (oriented(c), p.forecast(c, v0)))
-            })
-            .collect();
-        facing
-            .iter()
-            .map(|me| {
-                let Some(((bodies, n), f)) = *me else {
-                    return false;
-                };
-                f > p.activation_margin
-                    && facing
-                        .iter()
-                        .flatten()
-                        .any(|&((other, m), g)| other == bodies && n.dot(&m) < FACING_COS && g < f)
-            })
-            .collect()
+            .any(behind)
+            .then(|| facing.iter().map(behind).collect());
+        FACING.set(facing);
+        dropped
     }
+}
+
+/// An active contact's bodies, its normal oriented from the body of higher index to the
+/// lower, and its forecast.
+type Facing = (((BodyRef, BodyRef), Vector3<f64>), f64);
+
+thread_local! {
+    /// `behind_opposed`'s list, kept from one step to the next on each thread.
+    static FACING: std::cell::Cell<Vec<Option<Facing>>> = const { std::cell::Cell::new(Vec::new()) };
 }

@@ -108,6 +108,36 @@ pub enum SimError {
     Geometry { t: f64, message: String },
 }
 
+/// `Simulation::velocity_of`'s lists, kept from one step to the next on each thread: the
+/// positions of the persistent and turning contacts among the active ones, and the warm
+/// start.
+#[derive(Default)]
+struct VelocityLists {
+    persistent: Vec<usize>,
+    turning: Vec<usize>,
+    warm: Vec<Vector3<f64>>,
+}
+
+thread_local! {
+    static VELOCITY_LISTS: std::cell::Cell<Option<Box<VelocityLists>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// `Simulation::project_poses`'s lists, kept from one step to the next on each thread
+/// (boxed, so that taking and returning them moves a pointer): the pool's candidates, the
+/// poses before the projection, and the storage of the poses last evaluated.
+#[derive(Default)]
+struct ProjectionLists {
+    candidates: Vec<Candidate>,
+    trial: Vec<Pose>,
+    at: Vec<Pose>,
+}
+
+thread_local! {
+    static PROJECTION_LISTS: std::cell::Cell<Option<Box<ProjectionLists>>> =
+        const { std::cell::Cell::new(None) };
+}
+
 /// Cloned where a run forks (`probe_run`): each copy then steps on its own.
 #[derive(Clone)]
 pub struct Simulation {
@@ -318,10 +348,9 @@ impl Simulation {
     /// The velocity step with the contacts `active`, but for those that face another one
     /// which the step's motion closes first (`opposed.rs`): they take no impulse.
     pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
-        let dropped = self.behind_opposed(active);
-        if !dropped.iter().any(|&d| d) {
+        let Some(dropped) = self.behind_opposed(active) else {
             return self.velocity_of(active);
-        }
+        };
         let kept: Vec<usize> = active
             .iter()
             .zip(&dropped)
@@ -405,19 +434,28 @@ impl Simulation {
         // clearance pendulum in its plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with
         // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
         // h = 20 µs (2e-4 with them).
-        let persistent: Vec<usize> = (0..active.len())
-            .filter(|&k| closed(active[k]) && !self.points[active[k]].gap_law)
-            .collect();
-        let turning = persistent
-            .iter()
-            .copied()
-            .filter(|&k| match self.candidates[active[k]] {
-                Candidate::Pair { pair, .. } => {
-                    !self.model.contacts[pair].normal_is_fixed(&self.mask)
-                }
-                _ => true,
-            })
-            .collect();
+        let mut lists = VELOCITY_LISTS.take().unwrap_or_default();
+        let VelocityLists {
+            persistent,
+            turning,
+            warm,
+        } = &mut *lists;
+        persistent.clear();
+        persistent.extend(
+            (0..active.len()).filter(|&k| closed(active[k]) && !self.points[active[k]].gap_law),
+        );
+        turning.clear();
+        turning.extend(
+            persistent
+                .iter()
+                .copied()
+                .filter(|&k| match self.candidates[active[k]] {
+                    Candidate::Pair { pair, .. } => {
+                        !self.model.contacts[pair].normal_is_fixed(&self.mask)
+                    }
+                    _ => true,
+                }),
+        );
         let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
             let candidates: Vec<Candidate> =
                 which.iter().map(|&k| self.candidates[active[k]]).collect();
@@ -435,17 +473,17 @@ impl Simulation {
         };
         // a guard's index names a point relative to the current closest point, so its last
         // impulse belongs to another point: start it cold
-        let warm: Vec<Vector3<f64>> = active
-            .iter()
-            .map(|&i| {
-                if self.is_guard(i) {
-                    Vector3::zeros()
-                } else {
-                    self.warm[i]
-                }
-            })
-            .collect();
-        velocity_step(&start, &contacts, &warm, Some(&active_at), rows_at)
+        warm.clear();
+        warm.extend(active.iter().map(|&i| {
+            if self.is_guard(i) {
+                Vector3::zeros()
+            } else {
+                self.warm[i]
+            }
+        }));
+        let vs = velocity_step(&start, &contacts, warm, Some(&active_at), rows_at);
+        VELOCITY_LISTS.set(Some(lists));
+        vs
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
@@ -468,15 +506,23 @@ impl Simulation {
             };
             return (outcome, None);
         }
-        let candidates: Vec<Candidate> = pool.iter().map(|&i| self.candidates[i]).collect();
+        let mut lists = PROJECTION_LISTS.take().unwrap_or_default();
+        let ProjectionLists {
+            candidates,
+            trial,
+            at,
+        } = &mut *lists;
+        candidates.clear();
+        candidates.extend(pool.iter().map(|&i| self.candidates[i]));
+        let candidates = &*candidates;
         // the poses last evaluated and the pool's points there
-        let last = RefCell::new((Vec::new(), Vec::new()));
+        let last = RefCell::new((std::mem::take(at), Vec::new()));
         let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
             let (at, pts) = &mut *last;
             at.clear();
             at.extend_from_slice(ps);
-            model.evaluate_selected(ps, &candidates, pts);
+            model.evaluate_selected(ps, candidates, pts);
             rows.reserve(pts.len());
             for (&i, cp) in pool.iter().zip(pts.iter()) {
                 if which(i, cp) {
@@ -484,7 +530,8 @@ impl Simulation {
                 }
             }
         };
-        let trial = poses.to_vec();
+        trial.clear();
+        trial.extend_from_slice(poses);
         let mut outcome = project(
             model,
             &self.mask,
@@ -502,21 +549,22 @@ impl Simulation {
         // its flanges at a coarse step was thrown nine times the step's own motion, and
         // the bar gained 0.17 J. The step is then taken in halves, as for a projection
         // that found no solution. (A projection that took no iteration left the trial.)
-        let (at, pts) = last.into_inner();
-        let pool_points = (at == *poses).then_some(pts);
-        if outcome.iterations == 0 {
-            return (outcome, pool_points);
+        let (last_at, pts) = last.into_inner();
+        let pool_points = (last_at == *poses).then_some(pts);
+        *at = last_at;
+        if outcome.iterations > 0 {
+            let tolerance = self.params.projection_tolerance;
+            let admissible = (0..self.points.len())
+                .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);
+            if admissible
+                && mass_distance(model, trial, poses)
+                    > PROJECTION_REACH * mass_distance(model, trial, &self.state.poses)
+                        + mass_distance_of_length(model, tolerance)
+            {
+                outcome.converged = false;
+            }
         }
-        let tolerance = self.params.projection_tolerance;
-        let admissible = (0..self.points.len())
-            .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);
-        if admissible
-            && mass_distance(model, &trial, poses)
-                > PROJECTION_REACH * mass_distance(model, &trial, &self.state.poses)
-                    + mass_distance_of_length(model, tolerance)
-        {
-            outcome.converged = false;
-        }
+        PROJECTION_LISTS.set(Some(lists));
         (outcome, pool_points)
     }
 
