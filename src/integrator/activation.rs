@@ -183,6 +183,46 @@ impl Simulation {
 mod tests {
     use crate::scene::Scene;
 
+    /// A step reads nothing that the lists kept on its thread hold: the incline block (four
+    /// contacts on a turning box) and the clearance pendulum (a journal's rings and flanges,
+    /// guards, projections that fall back) run to the same bits on a fresh thread and on
+    /// one whose lists hold stale entries of other sizes, and the block is pressed (its
+    /// contacts carry impulses) and the journal touches its bore.
+    #[test]
+    fn a_step_reads_nothing_its_lists_held() {
+        let run = |name: &'static str, duration: f64, poison: bool| {
+            std::thread::spawn(move || {
+                if poison {
+                    super::LISTS.set(Some(Box::new(super::Lists {
+                        in_active: vec![true; 40],
+                        closed: vec![true; 40],
+                        worst: vec![(7, 7, f64::NAN); 5],
+                        pool: vec![39; 12],
+                        new: vec![38; 12],
+                    })));
+                    crate::integrator::simulation::poison_lists();
+                    crate::integrator::opposed::poison_lists();
+                }
+                let mut sim = Scene::bundled_simulation(name);
+                let mut pressed = 0;
+                sim.run_until(duration, |sim, _| {
+                    pressed += usize::from(sim.impulses().iter().any(|p| p.x > 0.0));
+                })
+                .unwrap();
+                (sim.state, sim.stats, pressed)
+            })
+            .join()
+            .unwrap()
+        };
+        for (name, duration) in [("incline-block", 0.3), ("pendulum-clearance", 0.05)] {
+            let (fresh, stats, pressed) = run(name, duration, false);
+            assert!(pressed > 10, "{name}: {pressed} steps with an impulse");
+            let (poisoned, stats2, _) = run(name, duration, true);
+            assert_eq!(fresh, poisoned, "{name}");
+            assert_eq!(stats, stats2, "{name}");
+        }
+    }
+
     /// The contact points a step leaves (the activation's, some of them handed on by the
     /// projection) are those a fresh evaluation at the step's end gives, bit for bit: on
     /// the incline block (contact pairs, which the projection hands on) and the cam

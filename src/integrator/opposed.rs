@@ -68,3 +68,14 @@ thread_local! {
     /// `behind_opposed`'s list, kept from one step to the next on each thread.
     static FACING: std::cell::Cell<Vec<Option<Facing>>> = const { std::cell::Cell::new(Vec::new()) };
 }
+
+/// Fills this thread's list with stale entries (for tests that show a step reads nothing
+/// it held).
+#[cfg(test)]
+pub(super) fn poison_lists() {
+    let stale = (
+        ((Some(9), Some(9)), Vector3::from_element(f64::NAN)),
+        f64::NAN,
+    );
+    FACING.set(vec![Some(stale); 9]);
+}

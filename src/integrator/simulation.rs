@@ -138,6 +138,32 @@ thread_local! {
         const { std::cell::Cell::new(None) };
 }
 
+/// Fills this thread's velocity and projection lists with stale entries of another size
+/// (for tests that show a step reads nothing they held).
+#[cfg(test)]
+pub(super) fn poison_lists() {
+    let pose = Pose {
+        x: Vector3::from_element(f64::NAN),
+        p: nalgebra::UnitQuaternion::identity(),
+    };
+    VELOCITY_LISTS.set(Some(Box::new(VelocityLists {
+        persistent: vec![7; 9],
+        turning: vec![8; 9],
+        warm: vec![Vector3::from_element(f64::NAN); 9],
+    })));
+    PROJECTION_LISTS.set(Some(Box::new(ProjectionLists {
+        candidates: vec![
+            Candidate::Pair {
+                pair: 99,
+                point: 99
+            };
+            9
+        ],
+        trial: vec![pose; 9],
+        at: vec![pose; 9],
+    })));
+}
+
 /// Cloned where a run forks (`probe_run`): each copy then steps on its own.
 #[derive(Clone)]
 pub struct Simulation {
