@@ -6,6 +6,7 @@
 use super::moreau_jean::advance_poses;
 use super::projection::ContactRows;
 use super::simulation::{Closing, Outcome, Simulation, StepReport};
+use crate::math::kept;
 use crate::mechanics::ContactPoint;
 
 /// A guard enters the velocity problem only when the step would carry the journal past it
@@ -19,8 +20,8 @@ const GUARD_DEPTH: f64 = 0.5;
 /// Normal speed (m/s) below which a pressed contact counts as staying closed.
 const SEPARATION_SPEED: f64 = 1e-9;
 
-/// The activation loop's lists, kept from one step to the next on each thread (boxed, so
-/// that taking and returning them moves a pointer). Each is cleared before it is filled.
+/// The activation loop's lists, kept from one step to the next on each thread. Each is
+/// cleared before it is filled.
 #[derive(Default)]
 struct Lists {
     /// Per candidate: in the velocity problem; closed at the step's end.
@@ -34,7 +35,7 @@ struct Lists {
 }
 
 thread_local! {
-    static LISTS: std::cell::Cell<Option<Box<Lists>>> = const { std::cell::Cell::new(None) };
+    static LISTS: kept::Slot<Lists> = const { kept::Slot::new(None) };
 }
 
 impl Simulation {
@@ -53,7 +54,7 @@ impl Simulation {
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
         let (mut last, mut settled) = (None, false);
-        let mut lists = LISTS.take().unwrap_or_default();
+        let mut lists = kept::take(&LISTS);
         let Lists {
             in_active,
             closed,
@@ -163,7 +164,6 @@ impl Simulation {
             active.extend(new.iter().copied());
             active.sort_unstable();
         }
-        LISTS.set(Some(lists));
         // an active set that did not settle within the allowed passes keeps the last pass,
         // flagged
         report.projection.converged &= settled;

@@ -11,6 +11,7 @@ use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
 use crate::math::buffer::{self, copy_into, zeros};
+use crate::math::kept;
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -227,7 +228,7 @@ pub fn velocity_step(
     } = *start;
     let (h, theta) = (params.h, params.theta);
     let ndof = v0.len();
-    let mut scratch = SCRATCH.take().unwrap_or_default();
+    let mut scratch = kept::take(&SCRATCH);
     scratch.fit(ndof);
     let Scratch {
         f0,
@@ -451,7 +452,6 @@ pub fn velocity_step(
         true => q_joint.iter().copied().collect(),
         false => Vec::new(),
     };
-    SCRATCH.set(Some(scratch));
     VelocityStep {
         v,
         impulses,
@@ -463,8 +463,8 @@ pub fn velocity_step(
     }
 }
 
-/// The Newton loop's vectors, kept from one step to the next on each thread (boxed, so
-/// that taking and returning them moves a pointer): allocating and freeing them took 14 %
+/// The Newton loop's vectors, kept from one step to the next on each thread (`kept`):
+/// allocating and freeing them took 14 %
 /// of the step of a bouncing ball or a free body. Every one is overwritten before it is
 /// read, so the results do not depend on what a previous step left in them.
 #[derive(Default)]
@@ -514,7 +514,7 @@ impl Scratch {
 thread_local! {
     /// Taken by a velocity step and put back when it ends (a nested step would find none
     /// and make its own).
-    static SCRATCH: std::cell::Cell<Option<Box<Scratch>>> = const { std::cell::Cell::new(None) };
+    static SCRATCH: kept::Slot<Scratch> = const { kept::Slot::new(None) };
 }
 
 /// A warm start larger than this many times the largest impulse that any one contact's

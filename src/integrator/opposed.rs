@@ -3,6 +3,7 @@
 //! problem alone cannot tell how much of an equal and opposite pair of impulses they carry.
 
 use super::simulation::Simulation;
+use crate::math::kept;
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::ContactPoint;
 use nalgebra::Vector3;
@@ -35,7 +36,7 @@ impl Simulation {
             let n = c.normal();
             (bodies, if bodies.0 == c.body1 { n } else { -n })
         };
-        let mut facing = FACING.take();
+        let mut facing = kept::take(&FACING);
         facing.clear();
         facing.extend(active.iter().map(|&i| {
             let c = &self.points[i];
@@ -55,7 +56,6 @@ impl Simulation {
             .iter()
             .any(behind)
             .then(|| facing.iter().map(behind).collect());
-        FACING.set(facing);
         dropped
     }
 }
@@ -66,7 +66,7 @@ type Facing = (((BodyRef, BodyRef), Vector3<f64>), f64);
 
 thread_local! {
     /// `behind_opposed`'s list, kept from one step to the next on each thread.
-    static FACING: std::cell::Cell<Vec<Option<Facing>>> = const { std::cell::Cell::new(Vec::new()) };
+    static FACING: kept::Slot<Vec<Option<Facing>>> = const { kept::Slot::new(None) };
 }
 
 /// Fills this thread's list with stale entries (for tests that show a step reads nothing
@@ -77,5 +77,5 @@ pub(super) fn poison_lists() {
         ((Some(9), Some(9)), Vector3::from_element(f64::NAN)),
         f64::NAN,
     );
-    FACING.set(vec![Some(stale); 9]);
+    FACING.set(Some(Box::new(vec![Some(stale); 9])));
 }

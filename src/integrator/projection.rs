@@ -6,7 +6,7 @@
 //! Velocities are not touched.
 
 use super::rows;
-use crate::math::buffer;
+use crate::math::{buffer, kept};
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
@@ -430,9 +430,8 @@ impl Steps<'_> {
     }
 }
 
-/// The projection's storage, kept from one projection to the next on each thread (boxed,
-/// so that taking and returning it moves a pointer). Every entry is written before it is
-/// read.
+/// The projection's storage, kept from one projection to the next on each thread
+/// (`kept`). Every entry is written before it is read.
 #[derive(Default)]
 struct Workspace {
     spare: Vec<Trial>,
@@ -441,8 +440,7 @@ struct Workspace {
 }
 
 thread_local! {
-    static WORKSPACE: std::cell::Cell<Option<Box<Workspace>>> =
-        const { std::cell::Cell::new(None) };
+    static WORKSPACE: kept::Slot<Workspace> = const { kept::Slot::new(None) };
 }
 
 /// Projects `poses` at time `t` onto the joints and the contacts `contacts` gives at the
@@ -475,7 +473,7 @@ pub fn project(
     tolerance: f64,
     max_iterations: usize,
 ) -> ProjectionOutcome {
-    let mut workspace = WORKSPACE.take().unwrap_or_default();
+    let mut workspace = kept::take(&WORKSPACE);
     let Workspace {
         spare,
         linear: storage,
@@ -557,7 +555,6 @@ pub fn project(
         spare.push(std::mem::replace(&mut current, next));
     }
     spare.push(current);
-    WORKSPACE.set(Some(workspace));
     out
 }
 

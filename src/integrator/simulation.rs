@@ -14,6 +14,7 @@ use super::projection::{
     JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
 };
 use super::schedule::Schedule;
+use crate::math::kept;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -119,12 +120,11 @@ struct VelocityLists {
 }
 
 thread_local! {
-    static VELOCITY_LISTS: std::cell::Cell<Option<Box<VelocityLists>>> =
-        const { std::cell::Cell::new(None) };
+    static VELOCITY_LISTS: kept::Slot<VelocityLists> = const { kept::Slot::new(None) };
 }
 
 /// `Simulation::project_poses`'s lists, kept from one step to the next on each thread
-/// (boxed, so that taking and returning them moves a pointer): the pool's candidates, the
+/// (`kept`): the pool's candidates, the
 /// poses before the projection, and the storage of the poses last evaluated.
 #[derive(Default)]
 struct ProjectionLists {
@@ -134,8 +134,7 @@ struct ProjectionLists {
 }
 
 thread_local! {
-    static PROJECTION_LISTS: std::cell::Cell<Option<Box<ProjectionLists>>> =
-        const { std::cell::Cell::new(None) };
+    static PROJECTION_LISTS: kept::Slot<ProjectionLists> = const { kept::Slot::new(None) };
 }
 
 /// Fills this thread's velocity and projection lists with stale entries of another size
@@ -460,7 +459,7 @@ impl Simulation {
         // clearance pendulum in its plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with
         // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
         // h = 20 µs (2e-4 with them).
-        let mut lists = VELOCITY_LISTS.take().unwrap_or_default();
+        let mut lists = kept::take(&VELOCITY_LISTS);
         let VelocityLists {
             persistent,
             turning,
@@ -507,9 +506,7 @@ impl Simulation {
                 self.warm[i]
             }
         }));
-        let vs = velocity_step(&start, &contacts, warm, Some(&active_at), rows_at);
-        VELOCITY_LISTS.set(Some(lists));
-        vs
+        velocity_step(&start, &contacts, warm, Some(&active_at), rows_at)
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
@@ -532,7 +529,7 @@ impl Simulation {
             };
             return (outcome, None);
         }
-        let mut lists = PROJECTION_LISTS.take().unwrap_or_default();
+        let mut lists = kept::take(&PROJECTION_LISTS);
         let ProjectionLists {
             candidates,
             trial,
@@ -590,7 +587,6 @@ impl Simulation {
                 outcome.converged = false;
             }
         }
-        PROJECTION_LISTS.set(Some(lists));
         (outcome, pool_points)
     }
 

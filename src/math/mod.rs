@@ -1,11 +1,13 @@
 //! Rotation helpers on top of nalgebra: the skew operator, the quaternion exponential map
-//! and the deterministic tangent basis of a contact normal; and (`buffer`) the vectors a
-//! step keeps from one step to the next.
+//! and the deterministic tangent basis of a contact normal; and (`buffer`, `kept`) the
+//! vectors a step keeps from one step to the next and the per-thread storage that holds
+//! them.
 //!
 //! Quaternions stay nalgebra's `UnitQuaternion`; nothing here multiplies quaternion
 //! components by hand except the exponential map itself, which needs a series near zero.
 
 pub mod buffer;
+pub mod kept;
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 

@@ -9,7 +9,7 @@ use super::fc3d::{
 };
 use super::newton::{global_newton, proximal_newton};
 use super::ordering::{block_is_nonzero, BlockPattern};
-use crate::math::buffer;
+use crate::math::{buffer, kept};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
@@ -51,14 +51,11 @@ impl Default for NsgsOptions {
 
 /// Solves FC3D by NSGS. `r` holds the warm start on entry and the impulses on exit.
 pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverStatus {
-    let mut sweeps = SWEEPS.take().unwrap_or_default();
-    let status = solve_in(p, r, opts, &mut sweeps);
-    SWEEPS.set(Some(sweeps));
-    status
+    solve_in(p, r, opts, &mut kept::take(&SWEEPS))
 }
 
-/// The sweeps' storage, kept from one solve to the next on each thread (boxed, so that
-/// taking and returning it moves a pointer). Every entry is written before it is read.
+/// The sweeps' storage, kept from one solve to the next on each thread (`kept`). Every
+/// entry is written before it is read.
 #[derive(Default)]
 struct Sweeps {
     /// Each contact's block of W and its inverse (for the sticking test).
@@ -69,7 +66,7 @@ struct Sweeps {
 }
 
 thread_local! {
-    static SWEEPS: std::cell::Cell<Option<Box<Sweeps>>> = const { std::cell::Cell::new(None) };
+    static SWEEPS: kept::Slot<Sweeps> = const { kept::Slot::new(None) };
 }
 
 /// `solve_fc3d` in the storage `sweeps`.
