@@ -48,15 +48,16 @@ fn local(
     (phi, a, b)
 }
 
+/// Φ at the impulses `r`, whose velocity u = W r + q is `u`, and on request its Jacobian.
 fn phi_and_jacobian(
     p: &Fc3d,
     pattern: &BlockPattern,
     r: &DVector<f64>,
+    u: &DVector<f64>,
     rho: &[(f64, f64)],
     with_jacobian: bool,
 ) -> (DVector<f64>, Option<DMatrix<f64>>) {
     let n = p.mu.len();
-    let u = pattern.velocity(p.w, r, p.q);
     let mut phi = DVector::zeros(3 * n);
     let mut jac = with_jacobian.then(|| DMatrix::zeros(3 * n, 3 * n));
     for (a, &(rho_n, rho_t)) in rho.iter().enumerate().take(n) {
@@ -146,12 +147,13 @@ fn newton_in_order(
             (1.0 / wn, 1.0 / wt)
         })
         .collect();
-    let error = |r: &DVector<f64>| natural_map_error_at(p, r, &pattern.velocity(p.w, r, p.q));
+    // the velocity at the current iterate, which the error test and Φ both read
+    let mut u = pattern.velocity(p.w, r, p.q);
     for it in 0..max_iterations {
-        if error(r) <= tolerance {
+        if natural_map_error_at(p, r, &u) <= tolerance {
             return Some(it);
         }
-        let (phi, jac) = phi_and_jacobian(p, pattern, r, &rho, true);
+        let (phi, jac) = phi_and_jacobian(p, pattern, r, &u, &rho, true);
         let f0 = phi.norm_squared();
         // Redundant contacts (the two rings of a clearance joint share the axial slip
         // direction) make J singular but the equations consistent: a tiny diagonal shift
@@ -165,9 +167,11 @@ fn newton_in_order(
         let mut t = 1.0;
         loop {
             let trial = &*r + &dr * t;
-            let (p2, _) = phi_and_jacobian(p, pattern, &trial, &rho, false);
+            let u_trial = pattern.velocity(p.w, &trial, p.q);
+            let (p2, _) = phi_and_jacobian(p, pattern, &trial, &u_trial, &rho, false);
             if p2.norm_squared() <= (1.0 - 1e-4 * t) * f0 {
                 *r = trial;
+                u = u_trial;
                 break;
             }
             t *= 0.5;
@@ -176,7 +180,7 @@ fn newton_in_order(
             }
         }
     }
-    (error(r) <= tolerance).then_some(max_iterations)
+    (natural_map_error_at(p, r, &u) <= tolerance).then_some(max_iterations)
 }
 
 /// max |J_ij| over the blocks of `pattern`, where all of J's nonzero entries lie: J's
@@ -285,7 +289,8 @@ mod tests {
             mu: &mu,
         };
         let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.5)).collect();
-        let (_, jac) = phi_and_jacobian(&p, &pattern, &r, &rho, true);
+        let u = pattern.velocity(&w, &r, &q);
+        let (_, jac) = phi_and_jacobian(&p, &pattern, &r, &u, &rho, true);
         let jac = jac.unwrap();
         assert!(jac.amax() > 0.1);
         assert_eq!(pattern_amax(&jac, &pattern), jac.amax());
