@@ -6,6 +6,7 @@
 use super::fc3d::{natural_map_error, natural_map_error_at, Fc3d};
 use super::lu::Lu;
 use super::ordering::BlockPattern;
+use crate::math::{buffer, kept};
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
 
 /// Φ of one contact and its derivatives A = ∂Φ/∂r, B = ∂Φ/∂u.
@@ -48,18 +49,23 @@ fn local(
     (phi, a, b)
 }
 
-/// Φ at the impulses `r`, whose velocity u = W r + q is `u`, and on request its Jacobian.
+/// Φ at the impulses `r`, whose velocity u = W r + q is `u`, into `phi`, and on request
+/// its Jacobian, into `jac`.
 fn phi_and_jacobian(
     p: &Fc3d,
     pattern: &BlockPattern,
     r: &DVector<f64>,
     u: &DVector<f64>,
     rho: &[(f64, f64)],
-    with_jacobian: bool,
-) -> (DVector<f64>, Option<DMatrix<f64>>) {
+    phi: &mut DVector<f64>,
+    mut jac: Option<&mut DMatrix<f64>>,
+) {
     let n = p.mu.len();
-    let mut phi = DVector::zeros(3 * n);
-    let mut jac = with_jacobian.then(|| DMatrix::zeros(3 * n, 3 * n));
+    // every entry of Φ is written below; the Jacobian's blocks outside the pattern are zero
+    buffer::fit(phi, 3 * n);
+    if let Some(j) = jac.as_mut() {
+        buffer::zeros_matrix(j, 3 * n, 3 * n);
+    }
     for (a, &(rho_n, rho_t)) in rho.iter().enumerate().take(n) {
         let o = 3 * a;
         let ua = Vector3::new(u[o], u[o + 1], u[o + 2]);
@@ -76,7 +82,6 @@ fn phi_and_jacobian(
             diag += da;
         }
     }
-    (phi, jac)
 }
 
 /// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
@@ -136,42 +141,55 @@ fn newton_in_order(
     tolerance: f64,
     max_iterations: usize,
 ) -> Option<usize> {
+    let mut kept = kept::take(&ITERATES);
+    let Iterates {
+        rho,
+        u,
+        u_trial,
+        phi,
+        phi_trial,
+        jac,
+        lu,
+        dr,
+        trial,
+    } = &mut *kept;
     let n = p.mu.len();
-    let rho: Vec<(f64, f64)> = (0..n)
-        .map(|a| {
-            let o = 3 * a;
-            let wn = p.w[(o, o)].max(f64::MIN_POSITIVE);
-            let wt = p.w[(o + 1, o + 1)]
-                .max(p.w[(o + 2, o + 2)])
-                .max(f64::MIN_POSITIVE);
-            (1.0 / wn, 1.0 / wt)
-        })
-        .collect();
+    rho.clear();
+    rho.extend((0..n).map(|a| {
+        let o = 3 * a;
+        let wn = p.w[(o, o)].max(f64::MIN_POSITIVE);
+        let wt = p.w[(o + 1, o + 1)]
+            .max(p.w[(o + 2, o + 2)])
+            .max(f64::MIN_POSITIVE);
+        (1.0 / wn, 1.0 / wt)
+    }));
     // the velocity at the current iterate, which the error test and Φ both read
-    let mut u = pattern.velocity(p.w, r, p.q);
+    pattern.velocity_into(p.w, r, p.q, u);
     for it in 0..max_iterations {
-        if natural_map_error_at(p, r, &u) <= tolerance {
+        if natural_map_error_at(p, r, u) <= tolerance {
             return Some(it);
         }
-        let (phi, jac) = phi_and_jacobian(p, pattern, r, &u, &rho, true);
+        phi_and_jacobian(p, pattern, r, u, rho, phi, Some(jac));
         let f0 = phi.norm_squared();
         // Redundant contacts (the two rings of a clearance joint share the axial slip
         // direction) make J singular but the equations consistent: a tiny diagonal shift
         // keeps the step defined without changing the solution.
-        let mut jac = jac.expect("requested");
-        let shift = 1e-10 * pattern_amax(&jac, pattern).max(f64::MIN_POSITIVE);
-        for k in 0..jac.nrows() {
-            jac[(k, k)] += shift;
+        let shift = 1e-10 * pattern_amax(jac, pattern).max(f64::MIN_POSITIVE);
+        lu.refactor_taking(jac, shift);
+        buffer::fit(dr, phi.len());
+        dr.zip_apply(phi, |d, f| *d = -f);
+        if !lu.solve_in_place(dr.as_mut_slice()) {
+            return None;
         }
-        let dr = Lu::new(jac).solve(&(-&phi))?;
         let mut t = 1.0;
         loop {
-            let trial = &*r + &dr * t;
-            let u_trial = pattern.velocity(p.w, &trial, p.q);
-            let (p2, _) = phi_and_jacobian(p, pattern, &trial, &u_trial, &rho, false);
-            if p2.norm_squared() <= (1.0 - 1e-4 * t) * f0 {
-                *r = trial;
-                u = u_trial;
+            buffer::fit(trial, r.len());
+            trial.zip_zip_apply(r, dr, |x, r, d| *x = r + d * t);
+            pattern.velocity_into(p.w, trial, p.q, u_trial);
+            phi_and_jacobian(p, pattern, trial, u_trial, rho, phi_trial, None);
+            if phi_trial.norm_squared() <= (1.0 - 1e-4 * t) * f0 {
+                r.copy_from(trial);
+                std::mem::swap(u, u_trial);
                 break;
             }
             t *= 0.5;
@@ -180,7 +198,31 @@ fn newton_in_order(
             }
         }
     }
-    (natural_map_error_at(p, r, &u) <= tolerance).then_some(max_iterations)
+    (natural_map_error_at(p, r, u) <= tolerance).then_some(max_iterations)
+}
+
+/// The Newton method's storage, kept from one solve to the next on each thread (`kept`).
+/// Every entry is written before it is read.
+#[derive(Default)]
+struct Iterates {
+    /// Each contact's (ρ_N, ρ_T).
+    rho: Vec<(f64, f64)>,
+    /// The velocity at the iterate and at the line search's trial.
+    u: DVector<f64>,
+    u_trial: DVector<f64>,
+    /// Φ at the iterate and at the trial.
+    phi: DVector<f64>,
+    phi_trial: DVector<f64>,
+    /// The Jacobian of Φ, and its factors (formed in the Jacobian's storage).
+    jac: DMatrix<f64>,
+    lu: Lu,
+    /// The Newton step and the trial impulses.
+    dr: DVector<f64>,
+    trial: DVector<f64>,
+}
+
+thread_local! {
+    static ITERATES: kept::Slot<Iterates> = const { kept::Slot::new(None) };
 }
 
 /// max |J_ij| over the blocks of `pattern`, where all of J's nonzero entries lie: J's
@@ -263,6 +305,63 @@ pub fn proximal_newton(
 mod tests {
     use super::*;
 
+    /// A solve reads nothing that an earlier one left in the thread's storage: a chain of
+    /// three frictional contacts (the first and the last uncoupled, so that the Jacobian
+    /// has zero blocks) solves to the same bits, in as many iterations, on a fresh thread
+    /// and on one whose storage holds NaN of the same size.
+    #[test]
+    fn a_solve_reads_nothing_an_earlier_one_left() {
+        let w = DMatrix::from_fn(9, 9, |i, j| {
+            let base = if i == j { 2.0 + 0.1 * i as f64 } else { 0.0 };
+            base + if (i / 3).abs_diff(j / 3) == 1 && (i + j) % 2 == 0 {
+                0.3
+            } else {
+                0.0
+            }
+        });
+        let q = DVector::from_vec(vec![-1.0, 0.8, 0.1, -0.5, 0.0, 0.05, -0.7, -0.2, 0.3]);
+        let mu = [0.3, 0.5, 0.4];
+        let solve = |poison: bool| {
+            let (w, q) = (w.clone(), q.clone());
+            std::thread::spawn(move || {
+                if poison {
+                    let nan = DVector::from_element(9, f64::NAN);
+                    ITERATES.set(Some(Box::new(Iterates {
+                        rho: vec![(f64::NAN, f64::NAN); 3],
+                        u: nan.clone(),
+                        u_trial: nan.clone(),
+                        phi: nan.clone(),
+                        phi_trial: nan.clone(),
+                        jac: DMatrix::from_element(9, 9, f64::NAN),
+                        lu: Lu::new(DMatrix::from_element(9, 9, f64::NAN)),
+                        dr: nan.clone(),
+                        trial: nan,
+                    })));
+                }
+                let p = Fc3d {
+                    w: &w,
+                    q: &q,
+                    mu: &mu,
+                };
+                let mut r = DVector::zeros(9);
+                let it = global_newton(&p, &BlockPattern::of(&w), &mut r, 1e-12, 50);
+                (it, natural_map_error(&p, &r), r)
+            })
+            .join()
+            .unwrap()
+        };
+        let (it, error, r) = solve(false);
+        assert!(it.is_some() && error <= 1e-12, "{it:?} {error}");
+        // the first contact slides: its friction is on the cone's boundary
+        assert!(
+            (r[1].hypot(r[2]) - mu[0] * r[0]).abs() <= 1e-9 * r[0],
+            "{r}"
+        );
+        let (it2, _, r2) = solve(true);
+        assert_eq!(it, it2);
+        assert_eq!(r, r2);
+    }
+
     /// The Jacobian's largest entry, read over W's block pattern only, is its `amax`: the
     /// Jacobian has no nonzero entry outside the pattern. W is an arrow: contact 0 is
     /// coupled to every other, and no other pair is.
@@ -290,8 +389,8 @@ mod tests {
         };
         let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.5)).collect();
         let u = pattern.velocity(&w, &r, &q);
-        let (_, jac) = phi_and_jacobian(&p, &pattern, &r, &u, &rho, true);
-        let jac = jac.unwrap();
+        let (mut phi, mut jac) = (DVector::zeros(0), DMatrix::zeros(0, 0));
+        phi_and_jacobian(&p, &pattern, &r, &u, &rho, &mut phi, Some(&mut jac));
         assert!(jac.amax() > 0.1);
         assert_eq!(pattern_amax(&jac, &pattern), jac.amax());
         // an entry outside the pattern would be missed: the test can tell

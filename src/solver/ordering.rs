@@ -5,6 +5,7 @@
 //! fewer entries. On the circuit breaker a third of the blocks are nonzero, and in the
 //! contacts' index order the LU fills in almost completely.
 
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
@@ -77,7 +78,20 @@ impl BlockPattern {
 
     /// u = W r + q over the blocks of the pattern only.
     pub fn velocity(&self, w: &DMatrix<f64>, r: &DVector<f64>, q: &DVector<f64>) -> DVector<f64> {
-        let mut u = q.clone();
+        let mut u = DVector::zeros(0);
+        self.velocity_into(w, r, q, &mut u);
+        u
+    }
+
+    /// [`velocity`](Self::velocity) into `u`, in its storage.
+    pub fn velocity_into(
+        &self,
+        w: &DMatrix<f64>,
+        r: &DVector<f64>,
+        q: &DVector<f64>,
+        u: &mut DVector<f64>,
+    ) {
+        buffer::copy_into(u, q);
         for a in 0..self.n {
             let mut ua = Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
             for &b in self.row(a) {
@@ -86,7 +100,6 @@ impl BlockPattern {
             }
             u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
         }
-        u
     }
 
     /// The pattern of the problem whose contact k is contact `order[k]` of this one.
