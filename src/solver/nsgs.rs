@@ -406,8 +406,8 @@ mod tests {
     /// Two contacts pressed along nearly the same direction (the two rings of a journal):
     /// W's normal block is [[1, 1 − ε], [1 − ε, 1]], on which Gauss–Seidel gains only a
     /// factor (1 − ε)² a sweep. The sweeps hand the problem to the global Newton method as
-    /// soon as their rate shows the crawl, not after GLOBAL_NEWTON_AFTER of them, and the
-    /// impulses are the analytic r_N = 1 / (2 − ε) on each contact, with no friction.
+    /// soon as their rate shows the crawl, not after GLOBAL_NEWTON_AFTER of them. Both
+    /// contacts press, so that W r + q = 0: r_N = 1 / (2 − ε) on each, with no friction.
     #[test]
     fn a_crawl_goes_to_newton_at_once() {
         let eps = 1e-3;
