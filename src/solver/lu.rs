@@ -38,14 +38,10 @@ impl Lu {
     /// reusing their storage (a caller that factorises at every step allocates once).
     pub fn refactor(&mut self, a: &DMatrix<f64>, shift: f64) {
         assert!(a.is_square(), "LU of a non-square matrix");
-        let n = a.nrows();
-        self.n = n;
+        self.n = a.nrows();
         self.lu.clear();
         self.lu.extend_from_slice(a.as_slice());
-        for i in 0..n {
-            self.lu[i * n + i] += shift;
-        }
-        self.factorise();
+        self.shift_and_factorise(shift);
     }
 
     /// Factorises `a` with `shift` added to its diagonal in `a`'s own storage, which it
@@ -53,13 +49,18 @@ impl Lu {
     /// caller to form its next matrix in. Nothing is copied.
     pub fn refactor_taking(&mut self, a: &mut DMatrix<f64>, shift: f64) {
         assert!(a.is_square(), "LU of a non-square matrix");
-        let n = a.nrows();
+        self.n = a.nrows();
         let mut spare = std::mem::take(&mut self.lu);
         spare.clear();
         self.lu = std::mem::replace(a, DMatrix::from_vec(0, 0, spare))
             .data
             .into();
-        self.n = n;
+        self.shift_and_factorise(shift);
+    }
+
+    /// Adds `shift` to the diagonal of the matrix held in `lu`, then factorises it.
+    fn shift_and_factorise(&mut self, shift: f64) {
+        let n = self.n;
         for i in 0..n {
             self.lu[i * n + i] += shift;
         }

@@ -165,6 +165,9 @@ fn newton_in_order(
     }));
     // the velocity at the current iterate, which the error test and Φ both read
     pattern.velocity_into(p.w, r, p.q, u);
+    // the step and the trial, every entry written at each use
+    buffer::fit(dr, r.len());
+    buffer::fit(trial, r.len());
     for it in 0..max_iterations {
         if natural_map_error_at(p, r, u) <= tolerance {
             return Some(it);
@@ -176,14 +179,12 @@ fn newton_in_order(
         // keeps the step defined without changing the solution.
         let shift = 1e-10 * pattern_amax(jac, pattern).max(f64::MIN_POSITIVE);
         lu.refactor_taking(jac, shift);
-        buffer::fit(dr, phi.len());
         dr.zip_apply(phi, |d, f| *d = -f);
         if !lu.solve_in_place(dr.as_mut_slice()) {
             return None;
         }
         let mut t = 1.0;
         loop {
-            buffer::fit(trial, r.len());
             trial.zip_zip_apply(r, dr, |x, r, d| *x = r + d * t);
             pattern.velocity_into(p.w, trial, p.q, u_trial);
             phi_and_jacobian(p, pattern, trial, u_trial, rho, phi_trial, None);
@@ -388,8 +389,9 @@ mod tests {
             mu: &mu,
         };
         let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.5)).collect();
-        let u = pattern.velocity(&w, &r, &q);
-        let (mut phi, mut jac) = (DVector::zeros(0), DMatrix::zeros(0, 0));
+        let (mut u, mut phi, mut jac) =
+            (DVector::zeros(0), DVector::zeros(0), DMatrix::zeros(0, 0));
+        pattern.velocity_into(&w, &r, &q, &mut u);
         phi_and_jacobian(&p, &pattern, &r, &u, &rho, &mut phi, Some(&mut jac));
         assert!(jac.amax() > 0.1);
         assert_eq!(pattern_amax(&jac, &pattern), jac.amax());

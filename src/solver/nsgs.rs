@@ -430,12 +430,7 @@ mod tests {
         // soft one (ε), which the tolerance leaves 1/ε times looser
         assert!((r[0] + r[3] - 2.0 / (2.0 - eps)).abs() <= 1e-9, "{r}");
         assert!((r[0] - r[3]).abs() <= 1e-6, "{r}");
-        assert!(r
-            .iter()
-            .skip(1)
-            .step_by(3)
-            .chain(r.iter().skip(2).step_by(3))
-            .all(|&t| t == 0.0));
+        assert!([1, 2, 4, 5].iter().all(|&k| r[k] == 0.0), "{r}");
     }
 
     /// A solve reads nothing that an earlier one left in the thread's storage: two coupled

@@ -76,14 +76,7 @@ impl BlockPattern {
         &self.columns[self.start[a]..self.start[a + 1]]
     }
 
-    /// u = W r + q over the blocks of the pattern only.
-    pub fn velocity(&self, w: &DMatrix<f64>, r: &DVector<f64>, q: &DVector<f64>) -> DVector<f64> {
-        let mut u = DVector::zeros(0);
-        self.velocity_into(w, r, q, &mut u);
-        u
-    }
-
-    /// [`velocity`](Self::velocity) into `u`, in its storage.
+    /// u = W r + q over the blocks of the pattern only, into `u` (in its storage).
     pub fn velocity_into(
         &self,
         w: &DMatrix<f64>,
@@ -216,7 +209,8 @@ mod tests {
         let spokes = (1..n).flat_map(|a| [(0, a), (a, 0)]);
         assert_eq!(BlockPattern::of_pairs(n, spokes), BlockPattern::of(&w));
         let q = DVector::from_fn(3 * n, |i, _| (i as f64 * 1.3).cos());
-        let u = BlockPattern::of(&w).velocity(&w, &b, &q);
+        let mut u = DVector::zeros(0);
+        BlockPattern::of(&w).velocity_into(&w, &b, &q, &mut u);
         assert!((u - (&w * &b + &q)).amax() < 1e-14);
         let filled = |m: DMatrix<f64>| Lu::new(m).nonzeros();
         let pattern = w.iter().filter(|&&x| x != 0.0).count();
