@@ -5,7 +5,7 @@
 
 use super::moreau_jean::advance_poses;
 use super::projection::ContactRows;
-use super::simulation::{Closing, Outcome, Simulation, StepReport};
+use super::simulation::{hand_back_points, spare_points, Closing, Outcome, Simulation, StepReport};
 use crate::math::kept;
 use crate::mechanics::ContactPoint;
 
@@ -138,9 +138,12 @@ impl Simulation {
                 let points = pool_points.as_ref()?;
                 pool.binary_search(&k).ok().map(|j| &points[j])
             };
-            let mut after = Vec::new();
+            let mut after = spare_points();
             self.model
                 .evaluate_selected_knowing(&poses, &self.candidates, known, &mut after);
+            if let Some(points) = pool_points {
+                hand_back_points(points);
+            }
             new.clear();
             new.extend(
                 (0..after.len())
@@ -148,7 +151,9 @@ impl Simulation {
             );
             if new.is_empty() {
                 settled = true;
-                last = Some((active, vs, poses, after));
+                if let Some((.., passed)) = last.replace((active, vs, poses, after)) {
+                    hand_back_points(passed);
+                }
                 break;
             }
             // a contact that the first pass (the motion without this step's new impulses)
@@ -160,7 +165,9 @@ impl Simulation {
                 knocked: pass > 1
                     && self.points[i].local_velocity(self.state.v.as_slice()).x >= 0.0,
             }));
-            last = Some((active.clone(), vs, poses, after));
+            if let Some((.., passed)) = last.replace((active.clone(), vs, poses, after)) {
+                hand_back_points(passed);
+            }
             active.extend(new.iter().copied());
             active.sort_unstable();
         }

@@ -10,6 +10,7 @@
 use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
+use super::simulation::hand_back_points;
 use crate::math::buffer::{self, copy_into, zeros};
 use crate::math::kept;
 use crate::mechanics::body::Twist;
@@ -21,7 +22,8 @@ use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 /// The joints' bilateral rows evaluated at a time and poses, appended to a list.
 pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose], &mut Vec<BilateralRow>);
 
-/// The active contacts at positions `which` evaluated at other poses.
+/// The active contacts at positions `which` evaluated at other poses, in a spare list
+/// (`hand_back_points` keeps its storage once done with).
 pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
 
 /// The active contacts evaluated at other poses, and those of them that were closed when
@@ -375,6 +377,8 @@ pub fn velocity_step(
                     contact_blocks(&at_end[k].with_tangents_of(frame), mask),
                 );
             }
+            hand_back_points(at_mid);
+            hand_back_points(at_end);
         }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         if let Some(rows_at) = joints {

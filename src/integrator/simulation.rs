@@ -134,6 +134,21 @@ struct ProjectionLists {
 }
 
 thread_local! {
+    static SPARE_POINTS: kept::Spares<ContactPoint> = const { RefCell::new(Vec::new()) };
+    static SPARE_CANDIDATES: kept::Spares<Candidate> = const { RefCell::new(Vec::new()) };
+}
+
+/// An empty list of contact points, in the storage of one handed back.
+pub(super) fn spare_points() -> Vec<ContactPoint> {
+    kept::spare(&SPARE_POINTS)
+}
+
+/// Keeps the storage of a list of contact points that is done with.
+pub(super) fn hand_back_points(points: Vec<ContactPoint>) {
+    kept::hand_back(&SPARE_POINTS, points)
+}
+
+thread_local! {
     static PROJECTION_LISTS: kept::Slot<ProjectionLists> = const { kept::Slot::new(None) };
 }
 
@@ -274,7 +289,7 @@ impl Simulation {
         joints: Option<JointViolation>,
     ) {
         match points {
-            Some(points) => self.points = points,
+            Some(points) => hand_back_points(std::mem::replace(&mut self.points, points)),
             None => {
                 self.model
                     .evaluate_selected(&self.state.poses, &self.candidates, &mut self.points)
@@ -482,10 +497,11 @@ impl Simulation {
                 }),
         );
         let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
-            let candidates: Vec<Candidate> =
-                which.iter().map(|&k| self.candidates[active[k]]).collect();
-            let mut out = Vec::with_capacity(which.len());
+            let mut candidates = kept::spare(&SPARE_CANDIDATES);
+            candidates.extend(which.iter().map(|&k| self.candidates[active[k]]));
+            let mut out = spare_points();
             self.model.evaluate_selected(poses, &candidates, &mut out);
+            kept::hand_back(&SPARE_CANDIDATES, candidates);
             for (c, &k) in out.iter_mut().zip(which) {
                 c.mu = contacts[k].mu;
             }
@@ -539,7 +555,7 @@ impl Simulation {
         candidates.extend(pool.iter().map(|&i| self.candidates[i]));
         let candidates = &*candidates;
         // the poses last evaluated and the pool's points there
-        let last = RefCell::new((std::mem::take(at), Vec::new()));
+        let last = RefCell::new((std::mem::take(at), spare_points()));
         let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
             let (at, pts) = &mut *last;
@@ -573,7 +589,12 @@ impl Simulation {
         // the bar gained 0.17 J. The step is then taken in halves, as for a projection
         // that found no solution. (A projection that took no iteration left the trial.)
         let (last_at, pts) = last.into_inner();
-        let pool_points = (last_at == *poses).then_some(pts);
+        let pool_points = if last_at == *poses {
+            Some(pts)
+        } else {
+            hand_back_points(pts);
+            None
+        };
         *at = last_at;
         if outcome.iterations > 0 {
             let tolerance = self.params.projection_tolerance;

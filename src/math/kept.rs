@@ -2,12 +2,35 @@
 //! solver's scratch): taken when a call begins and put back when it ends, on every way
 //! out. A nested call of the same function finds none and makes its own.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::ops::{Deref, DerefMut};
 use std::thread::LocalKey;
 
 /// A thread's kept storage (boxed, so that taking and returning it moves a pointer).
 pub type Slot<T> = Cell<Option<Box<T>>>;
+
+/// Vectors handed back on a thread once done with, for the next one it needs: lists that
+/// a step makes and lets go (contact points at its end, at a projection's iterate) reuse
+/// the storage of earlier ones instead of allocating.
+pub type Spares<T> = RefCell<Vec<Vec<T>>>;
+
+/// At most this many spare vectors are kept of each kind on each thread.
+const SPARES: usize = 8;
+
+/// An empty vector, in the storage of one handed back where there is one.
+pub fn spare<T>(spares: &'static LocalKey<Spares<T>>) -> Vec<T> {
+    spares.with_borrow_mut(Vec::pop).unwrap_or_default()
+}
+
+/// Keeps the storage of `v`, emptied, for a later `spare`.
+pub fn hand_back<T>(spares: &'static LocalKey<Spares<T>>, mut v: Vec<T>) {
+    v.clear();
+    spares.with_borrow_mut(|kept| {
+        if v.capacity() > 0 && kept.len() < SPARES {
+            kept.push(v);
+        }
+    });
+}
 
 /// The storage taken from a slot; dropping it puts it back.
 pub struct Kept<T: 'static> {
@@ -69,5 +92,24 @@ mod tests {
         assert_eq!(*outer, vec![1, 2]);
         drop(outer);
         assert_eq!(push(4, false), 3);
+    }
+
+    thread_local! {
+        static LISTS: Spares<u32> = const { RefCell::new(Vec::new()) };
+    }
+
+    /// A vector handed back comes out again empty, in the same storage; with none kept a
+    /// new one is made.
+    #[test]
+    fn spares_are_handed_out_empty_in_kept_storage() {
+        let mut v = spare(&LISTS);
+        assert_eq!(v.capacity(), 0, "none kept yet");
+        v.extend([1, 2, 3]);
+        let at = v.as_ptr();
+        hand_back(&LISTS, v);
+        let again = spare(&LISTS);
+        assert_eq!((again.as_ptr(), again.len()), (at, 0));
+        assert!(again.capacity() >= 3);
+        assert_eq!(spare(&LISTS).capacity(), 0, "the one kept is out");
     }
 }
