@@ -152,8 +152,8 @@ thread_local! {
     static PROJECTION_LISTS: kept::Slot<ProjectionLists> = const { kept::Slot::new(None) };
 }
 
-/// Fills this thread's velocity and projection lists with stale entries of another size
-/// (for tests that show a step reads nothing they held).
+/// Fills this thread's velocity and projection lists and its spare lists with stale
+/// entries of another size (for tests that show a step reads nothing they held).
 #[cfg(test)]
 pub(super) fn poison_lists() {
     let pose = Pose {
@@ -176,6 +176,34 @@ pub(super) fn poison_lists() {
         trial: vec![pose; 9],
         at: vec![pose; 9],
     })));
+    let frame = crate::mechanics::contact::BodyFrame::new(pose);
+    let nan = Vector3::from_element(f64::NAN);
+    let stale = ContactPoint::new(
+        crate::mechanics::contact::ContactGeometry {
+            gap: f64::NAN,
+            normal: nan,
+            point1: nan,
+            point2: nan,
+        },
+        Some(99),
+        &frame,
+        Some(98),
+        &frame,
+        None,
+        f64::NAN,
+        f64::NAN,
+    );
+    SPARE_POINTS.set(vec![vec![stale; 40]; 3]);
+    SPARE_CANDIDATES.set(vec![
+        vec![
+            Candidate::Limit {
+                joint: 99,
+                upper: true
+            };
+            40
+        ];
+        3
+    ]);
 }
 
 /// Cloned where a run forks (`probe_run`): each copy then steps on its own.

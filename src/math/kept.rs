@@ -19,12 +19,13 @@ const SPARES: usize = 8;
 
 /// An empty vector, in the storage of one handed back where there is one.
 pub fn spare<T>(spares: &'static LocalKey<Spares<T>>) -> Vec<T> {
-    spares.with_borrow_mut(Vec::pop).unwrap_or_default()
+    let mut v = spares.with_borrow_mut(Vec::pop).unwrap_or_default();
+    v.clear();
+    v
 }
 
-/// Keeps the storage of `v`, emptied, for a later `spare`.
-pub fn hand_back<T>(spares: &'static LocalKey<Spares<T>>, mut v: Vec<T>) {
-    v.clear();
+/// Keeps the storage of `v` for a later `spare`.
+pub fn hand_back<T>(spares: &'static LocalKey<Spares<T>>, v: Vec<T>) {
     spares.with_borrow_mut(|kept| {
         if v.capacity() > 0 && kept.len() < SPARES {
             kept.push(v);
