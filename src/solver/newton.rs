@@ -87,7 +87,7 @@ fn phi_and_jacobian(
 /// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
 /// natural-map error), leaving the best iterate in `r` either way. `pattern` is W's block
 /// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are
-/// taken in a fill-reducing order (`BlockPattern::minimum_degree`), which keeps the LU of
+/// taken in a fill-reducing order (`BlockPattern::minimum_degree_into`), which keeps the LU of
 /// the Jacobian sparse: on the circuit breaker it halves the factorisation's work.
 pub fn global_newton(
     p: &Fc3d,
@@ -96,41 +96,63 @@ pub fn global_newton(
     tolerance: f64,
     max_iterations: usize,
 ) -> Option<usize> {
-    let order = pattern.minimum_degree();
+    let mut kept = kept::take(&REORDERED);
+    let Reordered {
+        order,
+        w,
+        q,
+        mu,
+        r: reordered,
+        pattern: permuted,
+    } = &mut *kept;
+    pattern.minimum_degree_into(order);
     if order.iter().enumerate().all(|(k, &a)| k == a) {
         return newton_in_order(p, pattern, r, tolerance, max_iterations);
     }
     // entry k of the reordered problem is entry `index(k)` of the original
     let index = |k: usize| 3 * order[k / 3] + k % 3;
     let m = r.len();
-    // column by column, every entry written once
-    let mut data = Vec::with_capacity(m * m);
+    // column by column, every entry written once, in the storage of the last one
+    let mut data: Vec<f64> = std::mem::replace(w, DMatrix::zeros(0, 0)).data.into();
+    data.clear();
     for j in 0..m {
         let from = &p.w.as_slice()[index(j) * m..][..m];
-        for &a in &order {
+        for &a in order.iter() {
             data.extend_from_slice(&from[3 * a..3 * a + 3]);
         }
     }
-    let w = DMatrix::from_vec(m, m, data);
-    let q = DVector::from_fn(m, |i, _| p.q[index(i)]);
-    let mu: Vec<f64> = order.iter().map(|&a| p.mu[a]).collect();
-    let mut reordered = DVector::from_fn(m, |i, _| r[index(i)]);
-    let problem = Fc3d {
-        w: &w,
-        q: &q,
-        mu: &mu,
-    };
-    let outcome = newton_in_order(
-        &problem,
-        &pattern.permuted(&order),
-        &mut reordered,
-        tolerance,
-        max_iterations,
-    );
+    *w = DMatrix::from_vec(m, m, data);
+    buffer::fit(q, m);
+    buffer::fit(reordered, m);
+    for k in 0..m {
+        q[k] = p.q[index(k)];
+        reordered[k] = r[index(k)];
+    }
+    mu.clear();
+    mu.extend(order.iter().map(|&a| p.mu[a]));
+    pattern.permuted_into(order, permuted);
+    let problem = Fc3d { w, q, mu };
+    let outcome = newton_in_order(&problem, permuted, reordered, tolerance, max_iterations);
     for (k, x) in reordered.iter().enumerate() {
         r[index(k)] = *x;
     }
     outcome
+}
+
+/// The contacts' fill-reducing order and the problem taken in it, kept from one solve to
+/// the next on each thread (`kept`). Every entry is written before it is read.
+#[derive(Default)]
+struct Reordered {
+    order: Vec<usize>,
+    w: DMatrix<f64>,
+    q: DVector<f64>,
+    mu: Vec<f64>,
+    r: DVector<f64>,
+    pattern: BlockPattern,
+}
+
+thread_local! {
+    static REORDERED: kept::Slot<Reordered> = const { kept::Slot::new(None) };
 }
 
 /// `global_newton` on the contacts in their given order.
@@ -309,20 +331,21 @@ mod tests {
     /// A solve reads nothing that an earlier one left in the thread's storage: a chain of
     /// three frictional contacts (the first and the last uncoupled, so that the Jacobian
     /// has zero blocks) solves to the same bits, in as many iterations, on a fresh thread
-    /// and on one whose storage holds NaN of the same size.
+    /// and on one whose storage holds NaN of the same size; and so does the chain with its
+    /// middle contact numbered first, which the solve takes in another order.
     #[test]
     fn a_solve_reads_nothing_an_earlier_one_left() {
-        let w = DMatrix::from_fn(9, 9, |i, j| {
-            let base = if i == j { 2.0 + 0.1 * i as f64 } else { 0.0 };
-            base + if (i / 3).abs_diff(j / 3) == 1 && (i + j) % 2 == 0 {
-                0.3
-            } else {
-                0.0
-            }
-        });
+        let chain = |middle: usize| {
+            DMatrix::from_fn(9, 9, move |i, j| {
+                let base = if i == j { 2.0 + 0.1 * i as f64 } else { 0.0 };
+                let (a, b) = (i / 3, j / 3);
+                let linked = a != b && (a == middle || b == middle);
+                base + if linked && (i + j) % 2 == 0 { 0.3 } else { 0.0 }
+            })
+        };
         let q = DVector::from_vec(vec![-1.0, 0.8, 0.1, -0.5, 0.0, 0.05, -0.7, -0.2, 0.3]);
         let mu = [0.3, 0.5, 0.4];
-        let solve = |poison: bool| {
+        let solve = |w: &DMatrix<f64>, poison: bool| {
             let (w, q) = (w.clone(), q.clone());
             std::thread::spawn(move || {
                 if poison {
@@ -336,7 +359,15 @@ mod tests {
                         jac: DMatrix::from_element(9, 9, f64::NAN),
                         lu: Lu::new(DMatrix::from_element(9, 9, f64::NAN)),
                         dr: nan.clone(),
-                        trial: nan,
+                        trial: nan.clone(),
+                    })));
+                    REORDERED.set(Some(Box::new(Reordered {
+                        order: vec![2, 2, 2, 2],
+                        w: DMatrix::from_element(12, 12, f64::NAN),
+                        q: nan.clone(),
+                        mu: vec![f64::NAN; 4],
+                        r: nan,
+                        pattern: BlockPattern::of_pairs(4, [(0, 3)]),
                     })));
                 }
                 let p = Fc3d {
@@ -351,16 +382,24 @@ mod tests {
             .join()
             .unwrap()
         };
-        let (it, error, r) = solve(false);
-        assert!(it.is_some() && error <= 1e-12, "{it:?} {error}");
-        // the first contact slides: its friction is on the cone's boundary
-        assert!(
-            (r[1].hypot(r[2]) - mu[0] * r[0]).abs() <= 1e-9 * r[0],
-            "{r}"
-        );
-        let (it2, _, r2) = solve(true);
-        assert_eq!(it, it2);
-        assert_eq!(r, r2);
+        for middle in [1, 0] {
+            let w = chain(middle);
+            let mut order = Vec::new();
+            BlockPattern::of(&w).minimum_degree_into(&mut order);
+            assert_eq!(order, [[1, 0, 2], [0, 1, 2]][middle], "the order taken");
+            let (it, error, r) = solve(&w, false);
+            assert!(it.is_some() && error <= 1e-12, "{it:?} {error}");
+            if middle == 1 {
+                // the first contact slides: its friction is on the cone's boundary
+                assert!(
+                    (r[1].hypot(r[2]) - mu[0] * r[0]).abs() <= 1e-9 * r[0],
+                    "{r}"
+                );
+            }
+            let (it2, _, r2) = solve(&w, true);
+            assert_eq!(it, it2);
+            assert_eq!(r, r2);
+        }
     }
 
     /// The Jacobian's largest entry, read over W's block pattern only, is its `amax`: the

@@ -65,6 +65,9 @@ struct Sweeps {
     coupled: Coupling,
     /// The local velocity u = W r + q after a sweep.
     u: DVector<f64>,
+    /// W's block pattern and the iterate, as the global Newton method takes them.
+    pattern: BlockPattern,
+    trial: DVector<f64>,
 }
 
 thread_local! {
@@ -78,7 +81,13 @@ fn solve_in(
     opts: &NsgsOptions,
     sweeps: &mut Sweeps,
 ) -> SolverStatus {
-    let Sweeps { blocks, coupled, u } = sweeps;
+    let Sweeps {
+        blocks,
+        coupled,
+        u,
+        pattern,
+        trial,
+    } = sweeps;
     let n = p.mu.len();
     debug_assert_eq!(r.len(), 3 * n);
     if n == 0 {
@@ -127,7 +136,8 @@ fn solve_in(
         if residual < 0.9 * best {
             (best, best_sweep) = (residual, sweep);
         } else if sweep - best_sweep > STAGNATION_SWEEPS {
-            return last_resort(p, &coupled.pattern(n), r, opts, sweep);
+            coupled.pattern_into(n, pattern);
+            return last_resort(p, pattern, r, opts, sweep);
         }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
         // Newton method from the current iterate as soon as the sweeps' own rate says they
@@ -140,10 +150,10 @@ fn solve_in(
             && residual * rate.powi((GLOBAL_NEWTON_AFTER - sweep) as i32) > opts.tolerance;
         if crawling || sweep == GLOBAL_NEWTON_AFTER || sweep == 5 * GLOBAL_NEWTON_AFTER {
             newton_tried = true;
-            let mut trial = r.clone();
-            if let Some(it) = global_newton(p, &coupled.pattern(n), &mut trial, opts.tolerance, 100)
-            {
-                *r = trial;
+            buffer::copy_into(trial, r);
+            coupled.pattern_into(n, pattern);
+            if let Some(it) = global_newton(p, pattern, trial, opts.tolerance, 100) {
+                r.copy_from(trial);
                 return SolverStatus {
                     converged: true,
                     iterations: sweep + it,
@@ -152,7 +162,8 @@ fn solve_in(
             }
         }
     }
-    last_resort(p, &coupled.pattern(n), r, opts, opts.max_sweeps)
+    coupled.pattern_into(n, pattern);
+    last_resort(p, pattern, r, opts, opts.max_sweeps)
 }
 
 /// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
@@ -179,12 +190,12 @@ impl Coupling {
         start.push(blocks.len());
     }
 
-    /// W's block pattern, as the global Newton method takes it.
-    fn pattern(&self, n: usize) -> BlockPattern {
-        BlockPattern::of_pairs(
+    /// W's block pattern, as the global Newton method takes it, into `pattern`.
+    fn pattern_into(&self, n: usize, pattern: &mut BlockPattern) {
+        pattern.set_pairs(
             n,
             (0..n).flat_map(|a| self.of_contact(a).map(move |(b, _)| (a, b))),
-        )
+        );
     }
 
     fn of_contact(&self, a: usize) -> impl Iterator<Item = (usize, &Matrix3<f64>)> {
@@ -460,6 +471,8 @@ mod tests {
                             start: vec![0, 1, 2, 2],
                         },
                         u: DVector::from_element(9, f64::NAN),
+                        pattern: BlockPattern::of_pairs(3, [(0, 2)]),
+                        trial: DVector::from_element(9, f64::NAN),
                     })));
                 }
                 let p = Fc3d {

@@ -5,7 +5,7 @@
 //! fewer entries. On the circuit breaker a third of the blocks are nonzero, and in the
 //! contacts' index order the LU fills in almost completely.
 
-use crate::math::buffer;
+use crate::math::{buffer, kept};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
@@ -21,7 +21,7 @@ pub fn block_is_nonzero(w: &DMatrix<f64>, a: usize, b: usize) -> bool {
 
 /// Which 3×3 blocks of a contact problem's W are nonzero, symmetrised (a and b coupled when
 /// W_ab or W_ba is nonzero); the diagonal blocks always count.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlockPattern {
     n: usize,
     coupled: Vec<bool>,
@@ -44,31 +44,41 @@ impl BlockPattern {
     /// The pattern of n contacts whose off-diagonal blocks (a, b) are `pairs`, for a caller
     /// that has already found them (NSGS, which keeps W's nonzero blocks).
     pub fn of_pairs(n: usize, pairs: impl IntoIterator<Item = (usize, usize)>) -> Self {
-        let mut coupled = vec![false; n * n];
-        for a in 0..n {
-            coupled[a * n + a] = true;
-        }
-        for (a, b) in pairs {
-            coupled[a * n + b] = true;
-            coupled[b * n + a] = true;
-        }
-        Self::from_coupled(n, coupled)
+        let mut pattern = Self::default();
+        pattern.set_pairs(n, pairs);
+        pattern
     }
 
-    fn from_coupled(n: usize, coupled: Vec<bool>) -> Self {
-        let mut start = Vec::with_capacity(n + 1);
-        let mut columns = Vec::with_capacity(coupled.iter().filter(|&&c| c).count());
+    /// `of_pairs` in this pattern's storage.
+    pub fn set_pairs(&mut self, n: usize, pairs: impl IntoIterator<Item = (usize, usize)>) {
+        self.n = n;
+        self.coupled.clear();
+        self.coupled.resize(n * n, false);
         for a in 0..n {
-            start.push(columns.len());
-            columns.extend((0..n).filter(|&b| coupled[a * n + b]));
+            self.coupled[a * n + a] = true;
         }
-        start.push(columns.len());
-        BlockPattern {
+        for (a, b) in pairs {
+            self.coupled[a * n + b] = true;
+            self.coupled[b * n + a] = true;
+        }
+        self.list_rows();
+    }
+
+    /// Each row's blocks, listed from `coupled`.
+    fn list_rows(&mut self) {
+        let BlockPattern {
             n,
             coupled,
             start,
             columns,
+        } = self;
+        start.clear();
+        columns.clear();
+        for a in 0..*n {
+            start.push(columns.len());
+            columns.extend((0..*n).filter(|&b| coupled[a * *n + b]));
         }
+        start.push(columns.len());
     }
 
     /// The blocks b of row a that may be nonzero, ascending.
@@ -95,25 +105,35 @@ impl BlockPattern {
         }
     }
 
-    /// The pattern of the problem whose contact k is contact `order[k]` of this one.
-    pub fn permuted(&self, order: &[usize]) -> Self {
+    /// Into `out`, the pattern of the problem whose contact k is contact `order[k]` of
+    /// this one.
+    pub fn permuted_into(&self, order: &[usize], out: &mut BlockPattern) {
         let n = self.n;
-        let coupled = (0..n * n)
-            .map(|kl| self.coupled[order[kl / n] * n + order[kl % n]])
-            .collect();
-        Self::from_coupled(n, coupled)
+        out.n = n;
+        out.coupled.clear();
+        out.coupled
+            .extend((0..n * n).map(|kl| self.coupled[order[kl / n] * n + order[kl % n]]));
+        out.list_rows();
     }
 
-    /// A fill-reducing elimination order of the contacts, by minimum degree: at each step
-    /// the contact with the fewest neighbours left (the lowest index on a tie) goes next,
-    /// and its neighbours become coupled, as its elimination couples them.
-    pub fn minimum_degree(&self) -> Vec<usize> {
+    /// Into `order`, a fill-reducing elimination order of the contacts, by minimum degree:
+    /// at each step the contact with the fewest neighbours left (the lowest index on a tie)
+    /// goes next, and its neighbours become coupled, as its elimination couples them.
+    pub fn minimum_degree_into(&self, order: &mut Vec<usize>) {
         let n = self.n;
-        let mut coupled = self.coupled.clone();
-        let mut degree: Vec<usize> = (0..n).map(|a| self.row(a).len() - 1).collect();
-        let mut left = vec![true; n];
-        let mut order = Vec::with_capacity(n);
-        let mut neighbours = Vec::with_capacity(n);
+        let mut scratch = kept::take(&ELIMINATION);
+        let Elimination {
+            coupled,
+            degree,
+            left,
+            neighbours,
+        } = &mut *scratch;
+        coupled.clone_from(&self.coupled);
+        degree.clear();
+        degree.extend((0..n).map(|a| self.row(a).len() - 1));
+        left.clear();
+        left.resize(n, true);
+        order.clear();
         for _ in 0..n {
             let next = (0..n)
                 .filter(|&a| left[a])
@@ -123,7 +143,7 @@ impl BlockPattern {
             left[next] = false;
             neighbours.clear();
             neighbours.extend((0..n).filter(|&b| left[b] && coupled[next * n + b]));
-            for &b in &neighbours {
+            for &b in neighbours.iter() {
                 degree[b] -= 1;
             }
             for (k, &a) in neighbours.iter().enumerate() {
@@ -137,8 +157,23 @@ impl BlockPattern {
                 }
             }
         }
-        order
     }
+}
+
+/// The minimum-degree elimination's scratch, kept per thread (`kept`); every entry is
+/// written before it is read.
+#[derive(Default)]
+struct Elimination {
+    /// The pattern as elimination fills it in, each contact's degree, whether it is left,
+    /// and the neighbours of the one eliminated.
+    coupled: Vec<bool>,
+    degree: Vec<usize>,
+    left: Vec<bool>,
+    neighbours: Vec<usize>,
+}
+
+thread_local! {
+    static ELIMINATION: kept::Slot<Elimination> = const { kept::Slot::new(None) };
 }
 
 #[cfg(test)]
@@ -146,6 +181,13 @@ mod tests {
     use super::*;
     use crate::solver::Lu;
     use nalgebra::DVector;
+
+    /// The minimum-degree order of `pattern`, formed in a list that held another one.
+    fn order_of(pattern: &BlockPattern) -> Vec<usize> {
+        let mut order = vec![7; 9];
+        pattern.minimum_degree_into(&mut order);
+        order
+    }
 
     /// W of an arrow: contact 0 coupled to every other, the others to nobody else.
     fn arrow(n: usize) -> DMatrix<f64> {
@@ -166,8 +208,10 @@ mod tests {
     /// which the lower index wins).
     #[test]
     fn an_arrow_is_eliminated_hub_last() {
-        let order = BlockPattern::of(&arrow(6)).minimum_degree();
-        assert_eq!(order, vec![1, 2, 3, 4, 0, 5]);
+        assert_eq!(
+            order_of(&BlockPattern::of(&arrow(6))),
+            vec![1, 2, 3, 4, 0, 5]
+        );
     }
 
     /// A chain (each contact coupled to its two neighbours) keeps its natural order: the
@@ -182,7 +226,7 @@ mod tests {
                 0.0
             }
         });
-        assert_eq!(BlockPattern::of(&w).minimum_degree(), vec![0, 1, 2, 3, 4]);
+        assert_eq!(order_of(&BlockPattern::of(&w)), vec![0, 1, 2, 3, 4]);
     }
 
     /// The permuted system has the same solution, and the order makes the LU's factors no
@@ -193,7 +237,7 @@ mod tests {
         let w = arrow(n);
         let b = DVector::from_fn(3 * n, |i, _| (i as f64 * 0.7).sin());
         let x = Lu::new(w.clone()).solve(&b).unwrap();
-        let order = BlockPattern::of(&w).minimum_degree();
+        let order = order_of(&BlockPattern::of(&w));
         let index = |k: usize| 3 * order[k / 3] + k % 3;
         let wp = DMatrix::from_fn(3 * n, 3 * n, |i, j| w[(index(i), index(j))]);
         let bp = DVector::from_fn(3 * n, |i, _| b[index(i)]);
@@ -203,11 +247,20 @@ mod tests {
         }
         // the pattern of the permuted matrix is the permuted pattern, and products over it
         // are W r + q
-        assert_eq!(BlockPattern::of(&wp), BlockPattern::of(&w).permuted(&order));
+        // (each formed in the storage of a pattern of another size)
+        let mut permuted = BlockPattern::of(&arrow(n + 2));
+        BlockPattern::of(&w).permuted_into(&order, &mut permuted);
+        assert_eq!(BlockPattern::of(&wp), permuted);
         // and the pattern of the arrow's off-diagonal pairs (hub–spoke, either way round) is
         // the pattern read from W
         let spokes = (1..n).flat_map(|a| [(0, a), (a, 0)]);
-        assert_eq!(BlockPattern::of_pairs(n, spokes), BlockPattern::of(&w));
+        assert_eq!(
+            BlockPattern::of_pairs(n, spokes.clone()),
+            BlockPattern::of(&w)
+        );
+        let mut refilled = BlockPattern::of(&arrow(n + 2));
+        refilled.set_pairs(n, spokes);
+        assert_eq!(refilled, BlockPattern::of(&w));
         let q = DVector::from_fn(3 * n, |i, _| (i as f64 * 1.3).cos());
         let mut u = DVector::zeros(0);
         BlockPattern::of(&w).velocity_into(&w, &b, &q, &mut u);
