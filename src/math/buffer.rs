@@ -26,12 +26,16 @@ pub fn zeros_matrix(buf: &mut DMatrix<f64>, rows: usize, cols: usize) {
     if buf.shape() == (rows, cols) {
         buf.as_mut_slice().fill(0.0);
     } else {
-        let data = resized(
-            std::mem::replace(buf, DMatrix::zeros(0, 0)).data.into(),
-            rows * cols,
-        );
+        let data = resized(matrix_storage(buf), rows * cols);
         *buf = DMatrix::from_vec(rows, cols, data);
     }
+}
+
+/// The storage of `buf`, emptied, for a caller to form a matrix in; `buf` is left 0 × 0.
+pub fn matrix_storage(buf: &mut DMatrix<f64>) -> Vec<f64> {
+    let mut data: Vec<f64> = std::mem::replace(buf, DMatrix::zeros(0, 0)).data.into();
+    data.clear();
+    data
 }
 
 /// `n` zeros in the storage of `data`.
@@ -76,5 +80,9 @@ mod tests {
         assert_eq!((m.as_ptr(), &m), (at, &DMatrix::zeros(2, 2)));
         zeros_matrix(&mut m, 4, 3);
         assert_eq!(m, DMatrix::zeros(4, 3));
+        let at = m.as_ptr();
+        let data = matrix_storage(&mut m);
+        assert_eq!((data.as_ptr(), data.len(), m.shape()), (at, 0, (0, 0)));
+        assert!(data.capacity() >= 12);
     }
 }

@@ -26,8 +26,12 @@ pub fn spare<T>(spares: &'static LocalKey<Spares<T>>) -> Vec<T> {
 
 /// Keeps the storage of `v` for a later `spare`.
 pub fn hand_back<T>(spares: &'static LocalKey<Spares<T>>, v: Vec<T>) {
+    // a list that never held anything has no storage to keep
+    if v.capacity() == 0 {
+        return;
+    }
     spares.with_borrow_mut(|kept| {
-        if v.capacity() > 0 && kept.len() < SPARES {
+        if kept.len() < SPARES {
             kept.push(v);
         }
     });

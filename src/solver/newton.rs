@@ -113,8 +113,7 @@ pub fn global_newton(
     let index = |k: usize| 3 * order[k / 3] + k % 3;
     let m = r.len();
     // column by column, every entry written once, in the storage of the last one
-    let mut data: Vec<f64> = std::mem::replace(w, DMatrix::zeros(0, 0)).data.into();
-    data.clear();
+    let mut data = buffer::matrix_storage(w);
     for j in 0..m {
         let from = &p.w.as_slice()[index(j) * m..][..m];
         for &a in order.iter() {
