@@ -147,6 +147,7 @@ fn merged(fine: &RunStats, coarse: &RunStats, fork: &RunStats) -> RunStats {
             + after(coarse.projection_failures, fork.projection_failures),
         impact_splits: fine.impact_splits + after(coarse.impact_splits, fork.impact_splits),
         halved_steps: fine.halved_steps + after(coarse.halved_steps, fork.halved_steps),
+        plastic_steps: fine.plastic_steps + after(coarse.plastic_steps, fork.plastic_steps),
         max_penetration: fine.max_penetration.max(coarse.max_penetration),
         max_joint_violation: fine.max_joint_violation.max(coarse.max_joint_violation),
         max_joint_angle_violation: fine

@@ -291,6 +291,13 @@ impl fmt::Display for SimulateReport {
                 st.halved_steps
             )?;
         }
+        if st.plastic_steps > 0 {
+            writeln!(
+                f,
+                "plastic impacts  {} steps (the contacts jammed, where restitution could add energy: e = 0 there)",
+                st.plastic_steps
+            )?;
+        }
         let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
         writeln!(
             f,

@@ -235,20 +235,41 @@ fn a_planar_swing_stays_in_its_plane() {
         .unwrap_or_else(|e| panic!("{e}"));
 }
 
-/// A journal wedged across its bore (c = 70 µm, μ = 5 above L_B / 2R_J = 1, e = 0.5,
-/// h = 1e-4, the bar of `studies/pendulum-clearance`) lets the symmetric contact problem
-/// carry any equal and opposite pair of impulses on its two rings; one solve returned a
-/// pair of 2.3e6 N·s. Carried as the warm start into a later step whose rows at mid-step
-/// and at the end no longer cancel it, it gave the bar 11 J in one step at t = 0.406 s. A
-/// warm start beyond what the step's free motion calls for is now scaled down.
+/// A journal wedged across its bore (c = 70 µm, μ = 5 and 8 above L_B / 2R_J = 1, h = 1e-4,
+/// the bar of `studies/pendulum-clearance`) makes its contact problem nearly singular.
+/// With restitution, Newton's law then asks for rebounds that only impulses far beyond
+/// what the step calls for can give, and they gave the bar energy: 916 J in one step, with
+/// impulses of 1.2e5 N·s. Whether a run met such a step depended on rounding: 18 of these
+/// 36 runs, at clearances 1e-7 apart, gained from 0.78 to 919 J, and a change at the last
+/// bits of the ring's closest-point iteration turned the run at μ = 5, e = 0.5 and 70 µm
+/// from none into a 159 J gain. Such steps now take their impacts plastic
+/// (`RunStats::plastic_steps`), and no run gains energy.
 #[test]
-fn a_wedged_journal_gains_no_energy_from_its_last_impulses() {
-    let case = extremes::clearance_pendulum(7e-5, 1e-4, 5.0, 0.5, 0.45, u64::MAX);
-    let mut sim = common::simulation(case.scene);
-    let (rise, penetration) = rise_and_penetration(&mut sim, 0.45);
-    assert!(sim.stats.steps >= 4500, "{} steps", sim.stats.steps);
-    assert!(rise < 1e-9, "energy rose by {rise:.3e} J");
-    assert!(penetration < 1e-9, "penetration {penetration:.3e} m");
+fn a_wedged_journal_gains_no_energy_whatever_its_rounding() {
+    let mut plastic = 0;
+    for mu in [5.0, 8.0] {
+        for e in [0.5, 0.9] {
+            for k in -4..=4 {
+                let c = 7e-5 * (1.0 + f64::from(k) * 1e-7);
+                let case = extremes::clearance_pendulum(c, 1e-4, mu, e, 0.45, u64::MAX);
+                let mut sim = common::simulation(case.scene);
+                let (rise, penetration) = rise_and_penetration(&mut sim, 0.45);
+                let label = format!("μ = {mu}, e = {e}, c = 70 µm × (1 + {k}e-7)");
+                assert!(
+                    sim.stats.steps >= 4500,
+                    "{label}: {} steps",
+                    sim.stats.steps
+                );
+                assert!(rise < 1e-9, "{label}: energy rose by {rise:.3e} J");
+                assert!(
+                    penetration < 1e-9,
+                    "{label}: penetration {penetration:.3e} m"
+                );
+                plastic += sim.stats.plastic_steps;
+            }
+        }
+    }
+    assert!(plastic > 0, "no step jammed");
 }
 
 /// Friction in a tight journal (c = 1 µm, μ = 0.1, e = 0) takes 0.025 J of the bar's

@@ -186,6 +186,7 @@ fn simulate<'py>(
     diagnostics.set_item("nonconverged_steps", report.nonconverged_steps())?;
     diagnostics.set_item("impact_splits", st.impact_splits)?;
     diagnostics.set_item("halved_steps", st.halved_steps)?;
+    diagnostics.set_item("plastic_steps", st.plastic_steps)?;
     diagnostics.set_item("wall_seconds", report.wall_seconds)?;
     let out = PyDict::new(py);
     out.set_item("probes", probes)?;

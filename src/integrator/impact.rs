@@ -14,6 +14,7 @@ fn impact_report(vs: &VelocityStep) -> StepReport {
         newton_iterations: vs.newton_iterations,
         newton_converged: vs.newton_converged,
         solver: vs.solver,
+        plastic: vs.plastic,
         active_set_passes: 1,
         projection: ProjectionOutcome {
             converged: true,

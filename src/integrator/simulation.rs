@@ -32,6 +32,8 @@ pub struct StepReport {
     /// Velocity steps done (more than one when the combined scheme activated contacts).
     pub active_set_passes: usize,
     pub projection: ProjectionOutcome,
+    /// Its impacts were taken plastic: with restitution, the contacts jammed.
+    pub plastic: bool,
 }
 
 impl StepReport {
@@ -46,6 +48,7 @@ impl StepReport {
         self.projection.converged &= part.projection.converged;
         self.projection.iterations = self.projection.iterations.max(part.projection.iterations);
         self.active_set_passes = self.active_set_passes.max(part.active_set_passes);
+        self.plastic |= part.plastic;
     }
 }
 
@@ -97,6 +100,9 @@ pub struct RunStats {
     pub impact_splits: u64,
     /// Steps taken in halves because they were not resolved (`parts.rs`).
     pub halved_steps: u64,
+    /// Steps whose impacts were taken plastic because, with restitution, the contacts
+    /// jammed (`moreau_jean::REACH`).
+    pub plastic_steps: u64,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -661,6 +667,7 @@ impl Simulation {
         let s = &mut self.stats;
         s.solver_failures += u64::from(!report.solver.converged);
         s.newton_failures += u64::from(!report.newton_converged);
+        s.plastic_steps += u64::from(report.plastic);
         let projected = self.params.scheme.projects();
         s.projection_failures += u64::from(projected && !report.projection.converged);
         s.max_solver_residual = s.max_solver_residual.max(report.solver.residual);
@@ -749,6 +756,7 @@ impl Simulation {
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;
         report.solver = vs.solver;
+        report.plastic = vs.plastic;
         report
     }
 
