@@ -352,20 +352,24 @@ impl Ring {
     /// (exact, normalised): the same root, reached as fast (atan δ = δ − δ³/3), without a
     /// sine, cosine or arctangent per joint and step. The rotation by atan(f'/f'') is
     /// formed from f' and f'' directly (one square root and one division: the roots and
-    /// divisions, not the products, are what this costs). A step below `ANGLE_STEP` is not
-    /// taken: f' is rounded to about 1e-16 r² against f'' ≈ r e (e the journal's offset),
-    /// so at a clearance of micrometres the steps below it are rounding noise, which the
-    /// loop would chase to its last iteration.
+    /// divisions, not the products, are what this costs). The axis is taken into the
+    /// ring's frame (b1, b2, a) once, so that each iteration works on scalars: P(φ) − p is
+    /// (d1 + r cos φ, d2 + r sin φ, d3) there. A step below `ANGLE_STEP` is not taken: f'
+    /// is rounded to about 1e-16 r² against f'' ≈ r e (e the journal's offset), so at a
+    /// clearance of micrometres the steps below it are rounding noise, which the loop
+    /// would chase to its last iteration.
     fn closest_angle(&self, p: &Vector3<f64>, aj: &Vector3<f64>) -> (f64, f64) {
-        let (c, a, r, b1, b2) = (&self.c, &self.a, self.r, &self.b1, &self.b2);
-        let denom = a.dot(aj);
-        let s = if denom.abs() > 1e-12 {
-            p + aj * (a.dot(&(c - p)) / denom)
+        let r = self.r;
+        let frame = |v: &Vector3<f64>| (v.dot(&self.b1), v.dot(&self.b2), v.dot(&self.a));
+        let (d1, d2, d3) = frame(&(self.c - p));
+        let (a1, a2, a3) = frame(aj);
+        // where the axis crosses the ring plane, from the ring's centre
+        let (ex, ey) = if a3.abs() > 1e-12 {
+            let t = d3 / a3;
+            (a1 * t - d1, a2 * t - d2)
         } else {
-            *p
+            (-d1, -d2)
         };
-        let e = s - c;
-        let (ex, ey) = (e.dot(b1), e.dot(b2));
         let norm2 = ex * ex + ey * ey;
         let (mut cs, mut sn) = if norm2 > 0.0 {
             let k = 1.0 / norm2.sqrt();
@@ -374,18 +378,19 @@ impl Ring {
             (1.0, 0.0)
         };
         for _ in 0..NEWTON_STEPS {
-            let w = c + (b1 * cs + b2 * sn) * r - p;
-            let w1 = (b2 * cs - b1 * sn) * r;
-            let w2 = -(b1 * cs + b2 * sn) * r;
-            let (wa, w1a, w2a) = (w.dot(aj), w1.dot(aj), w2.dot(aj));
-            let d1 = w.dot(&w1) - wa * w1a;
-            let d2 = w1.dot(&w1) + w.dot(&w2) - w1a * w1a - wa * w2a;
-            if d2 <= 0.0 || d1.abs() <= ANGLE_STEP * d2 {
+            // w = P − p and its derivatives w1, w2 in φ, each against aj; then f'/2 and
+            // f''/2 (w1·w1 + w·w2 = −r (d1 cos φ + d2 sin φ))
+            let wa = a1 * (d1 + r * cs) + a2 * (d2 + r * sn) + a3 * d3;
+            let w1a = r * (a2 * cs - a1 * sn);
+            let w2a = -r * (a1 * cs + a2 * sn);
+            let f1 = r * (d2 * cs - d1 * sn) - wa * w1a;
+            let f2 = -r * (d1 * cs + d2 * sn) - w1a * w1a - wa * w2a;
+            if f2 <= 0.0 || f1.abs() <= ANGLE_STEP * f2 {
                 break;
             }
-            // φ ← φ − atan(d1/d2): cos and sin of atan(d1/d2) are d2/h and d1/h
-            let k = 1.0 / (d1 * d1 + d2 * d2).sqrt();
-            (cs, sn) = ((cs * d2 + sn * d1) * k, (sn * d2 - cs * d1) * k);
+            // φ ← φ − atan(f1/f2): cos and sin of atan(f1/f2) are f2/h and f1/h
+            let k = 1.0 / (f1 * f1 + f2 * f2).sqrt();
+            (cs, sn) = ((cs * f2 + sn * f1) * k, (sn * f2 - cs * f1) * k);
         }
         (cs, sn)
     }
