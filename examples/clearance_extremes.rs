@@ -1,6 +1,6 @@
 //! The extremes matrix of the clearance pendulum (clearance × step × friction), printed as a
 //! Markdown table: `cargo run --release --example clearance_extremes`. The test suite runs
-//! a smaller matrix (tests/clearance.rs); this is the full one published in the README.
+//! a smaller matrix (tests/clearance.rs); this is the full one.
 
 use mc_study::scene::Scene;
 use std::path::Path;
