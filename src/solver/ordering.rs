@@ -121,8 +121,8 @@ impl BlockPattern {
     /// goes next, and its neighbours become coupled, as its elimination couples them.
     pub fn minimum_degree_into(&self, order: &mut Vec<usize>) {
         let n = self.n;
-        let mut scratch = kept::take(&ELIMINATION);
-        let Elimination {
+        let mut scratch = kept::take(&MINIMUM_DEGREE);
+        let MinimumDegree {
             coupled,
             degree,
             left,
@@ -163,7 +163,7 @@ impl BlockPattern {
 /// The minimum-degree elimination's scratch, kept per thread (`kept`); every entry is
 /// written before it is read.
 #[derive(Default)]
-struct Elimination {
+struct MinimumDegree {
     /// The pattern as elimination fills it in, each contact's degree, whether it is left,
     /// and the neighbours of the one eliminated.
     coupled: Vec<bool>,
@@ -173,7 +173,7 @@ struct Elimination {
 }
 
 thread_local! {
-    static ELIMINATION: kept::Slot<Elimination> = const { kept::Slot::new(None) };
+    static MINIMUM_DEGREE: kept::Slot<MinimumDegree> = const { kept::Slot::new(None) };
 }
 
 #[cfg(test)]
