@@ -53,9 +53,21 @@ pub fn local_natural_map(r: &Vector3<f64>, u: &Vector3<f64>, mu: f64, rho: f64) 
 /// Step ρ_α = 3 / trace(W_αα) that makes ρ u an impulse.
 #[inline]
 pub fn contact_rho(block: &Matrix3<f64>) -> f64 {
-    let tr = block.trace();
-    if tr > 0.0 {
-        3.0 / tr
+    rho_of_trace(block.trace())
+}
+
+/// `contact_rho` of contact a's diagonal block of `w`, read in place.
+#[inline]
+fn contact_rho_in(w: &DMatrix<f64>, a: usize) -> f64 {
+    let o = 3 * a;
+    rho_of_trace(w[(o, o)] + w[(o + 1, o + 1)] + w[(o + 2, o + 2)])
+}
+
+/// 3 / `trace`, or 1 for a block without a positive trace.
+#[inline]
+fn rho_of_trace(trace: f64) -> f64 {
+    if trace > 0.0 {
+        3.0 / trace
     } else {
         1.0
     }
@@ -75,7 +87,7 @@ pub fn natural_map_error_at(p: &Fc3d, r: &DVector<f64>, u: &DVector<f64>) -> f64
     let mut rq = 0.0;
     for (a, &mu) in p.mu.iter().enumerate() {
         let o = 3 * a;
-        let rho = contact_rho(&p.w.fixed_view::<3, 3>(o, o).into_owned());
+        let rho = contact_rho_in(p.w, a);
         let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
         let ua = Vector3::new(u[o], u[o + 1], u[o + 2]);
         num += local_natural_map(&ra, &ua, mu, rho).norm_squared();
