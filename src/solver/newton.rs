@@ -6,6 +6,7 @@
 use super::fc3d::{natural_map_error, natural_map_error_at, Fc3d};
 use super::lu::Lu;
 use super::ordering::BlockPattern;
+use crate::math::blocks::{block3, set_block3, set_vector3, vector3};
 use crate::math::{buffer, kept};
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
 
@@ -68,18 +69,19 @@ fn phi_and_jacobian(
     }
     for (a, &(rho_n, rho_t)) in rho.iter().enumerate().take(n) {
         let o = 3 * a;
-        let ua = Vector3::new(u[o], u[o + 1], u[o + 2]);
-        let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
+        let (ua, ra) = (vector3(u, o), vector3(r, o));
         let (f, da, db) = local(&ua, &ra, p.mu[a], rho_n, rho_t);
-        phi.fixed_rows_mut::<3>(o).copy_from(&f);
+        set_vector3(phi, o, &f);
         if let Some(j) = jac.as_mut() {
-            // J = A + B W on the contact's rows, over W's nonzero blocks
+            // J = A + B W on the contact's rows, over W's nonzero blocks (the diagonal
+            // block among them)
             for &b in pattern.row(a) {
-                j.fixed_view_mut::<3, 3>(o, 3 * b)
-                    .copy_from(&(db * p.w.fixed_view::<3, 3>(o, 3 * b)));
+                let mut jab = db * block3(p.w, o, 3 * b);
+                if b == a {
+                    jab += da;
+                }
+                set_block3(j, o, 3 * b, &jab);
             }
-            let mut diag = j.fixed_view_mut::<3, 3>(o, o);
-            diag += da;
         }
     }
 }

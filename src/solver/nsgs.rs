@@ -9,6 +9,7 @@ use super::fc3d::{
 };
 use super::newton::{global_newton, proximal_newton};
 use super::ordering::{block_is_nonzero, BlockPattern};
+use crate::math::blocks::{block3, set_vector3, vector3};
 use crate::math::{buffer, kept};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
@@ -100,7 +101,7 @@ fn solve_in(
     // each contact's block and its inverse (for the sticking test), fixed over the sweeps
     blocks.clear();
     blocks.extend((0..n).map(|a| {
-        let block = p.w.fixed_view::<3, 3>(3 * a, 3 * a).into_owned();
+        let block = block3(p.w, 3 * a, 3 * a);
         (block, block.try_inverse())
     }));
     // the contacts each one is coupled to, with their (nonzero) off-diagonal blocks W_ab:
@@ -112,16 +113,14 @@ fn solve_in(
     for sweep in 1..=opts.max_sweeps {
         for (a, (block, inverse)) in blocks.iter().enumerate() {
             let o = 3 * a;
-            let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
+            let ra = vector3(r, o);
             // q_loc = q_a + Σ_{b≠a} W_ab r_b
-            let mut qloc = Vector3::new(p.q[o], p.q[o + 1], p.q[o + 2]);
+            let mut qloc = vector3(p.q, o);
             for (b, w_ab) in coupled.of_contact(a) {
-                qloc += w_ab * Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
+                qloc += w_ab * vector3(r, 3 * b);
             }
             let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
-            r[o] = sol.x;
-            r[o + 1] = sol.y;
-            r[o + 2] = sol.z;
+            set_vector3(r, o, &sol);
         }
         local_velocity(p, r, blocks, coupled, u);
         let residual = natural_map_error_at(p, r, u);
@@ -184,7 +183,7 @@ impl Coupling {
         for a in 0..n {
             start.push(blocks.len());
             for b in (0..n).filter(|&b| b != a && block_is_nonzero(w, a, b)) {
-                blocks.push((b, w.fixed_view::<3, 3>(3 * a, 3 * b).into_owned()));
+                blocks.push((b, block3(w, 3 * a, 3 * b)));
             }
         }
         start.push(blocks.len());
@@ -214,14 +213,14 @@ fn local_velocity(
     coupled: &Coupling,
     u: &mut DVector<f64>,
 ) {
-    let rb = |b: usize| Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
+    let rb = |b: usize| vector3(r, 3 * b);
     buffer::copy_into(u, p.q);
     for (a, (block, _)) in blocks.iter().enumerate() {
-        let mut ua = u.fixed_rows::<3>(3 * a) + block * rb(a);
+        let mut ua = vector3(u, 3 * a) + block * rb(a);
         for (b, w_ab) in coupled.of_contact(a) {
             ua += w_ab * rb(b);
         }
-        u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
+        set_vector3(u, 3 * a, &ua);
     }
 }
 

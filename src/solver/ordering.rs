@@ -5,8 +5,9 @@
 //! fewer entries. On the circuit breaker a third of the blocks are nonzero, and in the
 //! contacts' index order the LU fills in almost completely.
 
+use crate::math::blocks::{block3, set_vector3, vector3};
 use crate::math::{buffer, kept};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector};
 
 /// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
 /// contiguous in W's storage.
@@ -96,12 +97,11 @@ impl BlockPattern {
     ) {
         buffer::copy_into(u, q);
         for a in 0..self.n {
-            let mut ua = Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+            let mut ua = vector3(u, 3 * a);
             for &b in self.row(a) {
-                ua += w.fixed_view::<3, 3>(3 * a, 3 * b)
-                    * Vector3::new(r[3 * b], r[3 * b + 1], r[3 * b + 2]);
+                ua += block3(w, 3 * a, 3 * b) * vector3(r, 3 * b);
             }
-            u.fixed_rows_mut::<3>(3 * a).copy_from(&ua);
+            set_vector3(u, 3 * a, &ua);
         }
     }
 
