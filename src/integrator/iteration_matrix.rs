@@ -10,6 +10,7 @@
 //! per coupled group, so a mechanism with a few coupled pairs never pays for a dense
 //! factorisation of the whole system.
 
+use crate::math::blocks::vector6_at;
 use crate::math::skew;
 use crate::mechanics::body::Twist;
 use crate::mechanics::force::RotationBlock;
@@ -285,8 +286,7 @@ impl IterationMatrix {
                             pert_twists[6 * b + k] = twists[6 * b + k];
                         }
                         for &c in &bodies {
-                            let col = (Twist::from_column_slice(&buf_p[6 * c..6 * c + 6])
-                                - Twist::from_column_slice(&buf_m[6 * c..6 * c + 6]))
+                            let col = (vector6_at(buf_p, 6 * c) - vector6_at(buf_m, 6 * c))
                                 * (-weight / (2.0 * FD_STEP));
                             let blk = if c == b {
                                 &mut diag[c]

@@ -6,6 +6,7 @@
 //! Velocities are not touched.
 
 use super::rows;
+use crate::math::blocks::vector6_at;
 use crate::math::{buffer, kept};
 use crate::mechanics::joint::{BilateralRow, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
@@ -402,7 +403,7 @@ impl Steps<'_> {
         trial
             .poses
             .extend(self.from.iter().enumerate().map(|(b, pose)| {
-                let d = alpha * Vector6::from_column_slice(&dnu.as_slice()[6 * b..6 * b + 6]);
+                let d = alpha * vector6_at(dnu.as_slice(), 6 * b);
                 if d != Vector6::zeros() {
                     pose.advanced(&d)
                 } else {

@@ -1,16 +1,30 @@
-//! 3-vectors and 3×3 blocks of dynamic vectors and matrices, read and written by index.
-//! A fixed-size view checks its bounds and strides each time it is made; in the contact
-//! solvers' inner loops, which make one per contact and sweep, those checks cost more than
-//! the arithmetic on the block. The values are the view's, so every product with them is
-//! the view's, bit for bit.
+//! 3- and 6-vectors and 3×3 blocks of slices, dynamic vectors and matrices, read and
+//! written by index. A fixed-size view checks its bounds and strides each time it is made,
+//! and a fixed-size vector built from a slice goes through an iterator; in the contact
+//! solvers' inner loops, which make one per contact and sweep, that costs more than the
+//! arithmetic on the block. The values are the same, so every product with them is the
+//! same, bit for bit.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
+
+/// Entries `o`, `o + 1`, `o + 2` of `s`.
+#[inline]
+pub fn vector3_at(s: &[f64], o: usize) -> Vector3<f64> {
+    let x = &s[o..o + 3];
+    Vector3::new(x[0], x[1], x[2])
+}
+
+/// Entries `o` to `o + 5` of `s` (a body's twist or wrench in a vector of all of them).
+#[inline]
+pub fn vector6_at(s: &[f64], o: usize) -> Vector6<f64> {
+    let x = &s[o..o + 6];
+    Vector6::new(x[0], x[1], x[2], x[3], x[4], x[5])
+}
 
 /// Entries `o`, `o + 1`, `o + 2` of `v`.
 #[inline]
 pub fn vector3(v: &DVector<f64>, o: usize) -> Vector3<f64> {
-    let x = &v.as_slice()[o..o + 3];
-    Vector3::new(x[0], x[1], x[2])
+    vector3_at(v.as_slice(), o)
 }
 
 /// Writes `x` into entries `o`, `o + 1`, `o + 2` of `v`.
@@ -65,6 +79,10 @@ mod tests {
 
         let mut v = DVector::from_fn(7, |i, _| i as f64 * 1.5);
         assert_eq!(vector3(&v, 4), v.fixed_rows::<3>(4).into_owned());
+        assert_eq!(
+            vector6_at(v.as_slice(), 1),
+            Vector6::from_column_slice(&v.as_slice()[1..7])
+        );
         set_vector3(&mut v, 1, &Vector3::new(-1.0, -2.0, -3.0));
         assert_eq!(v.as_slice(), &[0.0, -1.0, -2.0, -3.0, 6.0, 7.5, 9.0]);
     }

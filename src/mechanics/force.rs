@@ -4,6 +4,7 @@
 //! potential energy where it has one.
 
 use super::body::{BodyRef, Pose, Twist};
+use crate::math::blocks::vector6_at;
 use crate::math::{any_orthogonal, skew};
 use nalgebra::{Matrix3, Vector3};
 
@@ -106,9 +107,7 @@ fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
 }
 
 fn twist_of(r: BodyRef, v: &[f64]) -> Twist {
-    r.map_or(Twist::zeros(), |i| {
-        Twist::from_column_slice(&v[6 * i..6 * i + 6])
-    })
+    r.map_or(Twist::zeros(), |i| vector6_at(v, 6 * i))
 }
 
 /// Velocity of the material point currently at `x` (inertial) of a body.

@@ -7,6 +7,7 @@ use super::contact::clearance::ClearanceJoint;
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
 use super::joint::{BilateralRow, Joint};
+use crate::math::blocks::vector6_at;
 use nalgebra::{DVector, Vector3};
 
 /// A unilateral contact candidate: a point of a contact pair, or a joint stop.
@@ -39,7 +40,7 @@ pub struct State {
 
 impl State {
     pub fn twist(&self, i: usize) -> Twist {
-        Twist::from_column_slice(&self.v.as_slice()[6 * i..6 * i + 6])
+        vector6_at(self.v.as_slice(), 6 * i)
     }
 }
 

@@ -16,6 +16,7 @@ pub use primitives::{ContactGeometry, Primitive};
 
 use super::body::BodyRef;
 use super::body::Pose;
+use crate::math::blocks::{vector3_at, vector6_at};
 use crate::math::{skew, tangent_basis};
 use nalgebra::{Matrix3, Matrix3x6, RowVector6, Vector3};
 
@@ -396,12 +397,7 @@ impl ContactPoint {
     /// frame's rows applied to the velocity of the material point of body 1 at the contact
     /// point less that of body 2, v_b + (x_b − p) × R_b ω_b for body-frame ω_b.
     pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
-        let twist = |i: usize| {
-            (
-                Vector3::from_column_slice(&v[6 * i..6 * i + 3]),
-                Vector3::from_column_slice(&v[6 * i + 3..6 * i + 6]),
-            )
-        };
+        let twist = |i: usize| (vector3_at(v, 6 * i), vector3_at(v, 6 * i + 3));
         match &self.jacobian {
             Jacobian::Lever { rotation, arm } => {
                 let mut w = Vector3::zeros();
@@ -417,9 +413,7 @@ impl ContactPoint {
                 self.frame * w
             }
             Jacobian::Normal { g1, g2 } => {
-                let row = |g: &RowVector6<f64>, i: usize| {
-                    (g * nalgebra::Vector6::from_column_slice(&v[6 * i..6 * i + 6]))[0]
-                };
+                let row = |g: &RowVector6<f64>, i: usize| (g * vector6_at(v, 6 * i))[0];
                 let un =
                     self.body1.map_or(0.0, |i| row(g1, i)) + self.body2.map_or(0.0, |i| row(g2, i));
                 Vector3::new(un, 0.0, 0.0)
