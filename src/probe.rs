@@ -476,7 +476,7 @@ impl<'a> ProbeRecorder<'a> {
                                 let c = &sim.contact_points()[i];
                                 let rate = before
                                     .get(k)
-                                    .map_or(c.local_velocity(v).x, |&(g0, _)| (c.gap() - g0) / h);
+                                    .map_or(c.normal_velocity(v), |&(g0, _)| (c.gap() - g0) / h);
                                 (c.gap(), rate)
                             })
                             .collect();

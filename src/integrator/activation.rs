@@ -79,8 +79,8 @@ impl Simulation {
                     continue;
                 }
                 let c = &self.points[i];
-                let u0 = c.local_velocity(self.state.v.as_slice()).x;
-                let u1 = c.local_velocity(vs.v.as_slice()).x;
+                let u0 = c.normal_velocity(self.state.v.as_slice());
+                let u1 = c.normal_velocity(vs.v.as_slice());
                 let end_gap = c.gap() + p.h * ((1.0 - p.theta) * u0 + p.theta * u1);
                 if end_gap < -GUARD_DEPTH * self.model.clearance_joints[ring / 2].clearance {
                     match worst.iter_mut().find(|w| w.0 == ring) {
@@ -105,7 +105,7 @@ impl Simulation {
             closed.resize(self.points.len(), false);
             for (k, &i) in active.iter().enumerate() {
                 let c = &self.points[i];
-                let u0 = c.local_velocity(self.state.v.as_slice()).x;
+                let u0 = c.normal_velocity(self.state.v.as_slice());
                 let u1 = vs.normal_speeds[k];
                 closed[i] =
                     vs.impulses[k].x > 0.0 && u1 <= 0.5 * c.e * (-u0).max(0.0) + SEPARATION_SPEED;
@@ -162,8 +162,7 @@ impl Simulation {
             closing.extend(new.iter().map(|&i| Closing {
                 candidate: i,
                 end_gap: after[i].gap(),
-                knocked: pass > 1
-                    && self.points[i].local_velocity(self.state.v.as_slice()).x >= 0.0,
+                knocked: pass > 1 && self.points[i].normal_velocity(self.state.v.as_slice()) >= 0.0,
             }));
             if let Some((.., passed)) = last.replace((active.clone(), vs, poses, after)) {
                 hand_back_points(passed);

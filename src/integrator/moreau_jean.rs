@@ -292,7 +292,7 @@ pub fn velocity_step(
     let is_persistent = |c: usize| persistent.is_some_and(|p| p.persistent.contains(&c));
     shift.clear();
     shift.extend(active.iter().enumerate().map(|(k, c)| {
-        let u0 = c.point.local_velocity(v0.as_slice()).x;
+        let u0 = c.point.normal_velocity(v0.as_slice());
         if c.point.gap_law && h > 0.0 {
             ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
         } else if is_persistent(k) {

@@ -155,7 +155,7 @@ impl IntegrationParameters {
     /// `v0`: g + γ h u_N. The contact enters the velocity problem when it is at most
     /// `activation_margin`.
     pub fn forecast(&self, c: &ContactPoint, v0: &[f64]) -> f64 {
-        c.gap() + self.gamma * self.h * c.local_velocity(v0).x
+        c.gap() + self.gamma * self.h * c.normal_velocity(v0)
     }
 
     /// Checks every value; the error names the offending field.

@@ -442,7 +442,7 @@ impl Simulation {
             .iter()
             .zip(&dropped)
             .map(|(&i, &d)| match d {
-                true => (Vector3::zeros(), self.points[i].local_velocity(v).x),
+                true => (Vector3::zeros(), self.points[i].normal_velocity(v)),
                 false => (
                     impulses.next().expect("one per kept"),
                     speeds.next().expect("one per kept"),
@@ -497,7 +497,7 @@ impl Simulation {
                 if settling && self.settle_frictionless[i] {
                     c.mu = 0.0;
                 }
-                if projected && closed(i) && c.point.local_velocity(self.state.v.as_slice()).x < 0.0
+                if projected && closed(i) && c.point.normal_velocity(self.state.v.as_slice()) < 0.0
                 {
                     c.e = 0.0;
                 }

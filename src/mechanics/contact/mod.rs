@@ -397,28 +397,48 @@ impl ContactPoint {
     /// frame's rows applied to the velocity of the material point of body 1 at the contact
     /// point less that of body 2, v_b + (x_b − p) × R_b ω_b for body-frame ω_b.
     pub fn local_velocity(&self, v: &[f64]) -> Vector3<f64> {
-        let twist = |i: usize| (vector3_at(v, 6 * i), vector3_at(v, 6 * i + 3));
+        match &self.jacobian {
+            Jacobian::Lever { rotation, arm } => self.frame * self.lever_velocity(rotation, arm, v),
+            Jacobian::Normal { .. } => Vector3::new(self.normal_velocity(v), 0.0, 0.0),
+        }
+    }
+
+    /// u_N alone: `local_velocity(v).x`, to the bit, without the tangential rows (the
+    /// activation tests and the gap laws read only it).
+    pub fn normal_velocity(&self, v: &[f64]) -> f64 {
         match &self.jacobian {
             Jacobian::Lever { rotation, arm } => {
-                let mut w = Vector3::zeros();
-                for (k, (body, sign)) in [(self.body1, 1.0), (self.body2, -1.0)]
-                    .into_iter()
-                    .enumerate()
-                {
-                    if let Some(i) = body {
-                        let (lin, ang) = twist(i);
-                        w += (lin + arm[k].cross(&(rotation[k] * ang))) * sign;
-                    }
-                }
-                self.frame * w
+                let w = self.lever_velocity(rotation, arm, v);
+                let n = |k: usize| self.frame[(0, k)];
+                // the order in which the matrix product forms its first row
+                n(0) * w.x + n(1) * w.y + n(2) * w.z
             }
             Jacobian::Normal { g1, g2 } => {
                 let row = |g: &RowVector6<f64>, i: usize| (g * vector6_at(v, 6 * i))[0];
-                let un =
-                    self.body1.map_or(0.0, |i| row(g1, i)) + self.body2.map_or(0.0, |i| row(g2, i));
-                Vector3::new(un, 0.0, 0.0)
+                self.body1.map_or(0.0, |i| row(g1, i)) + self.body2.map_or(0.0, |i| row(g2, i))
             }
         }
+    }
+
+    /// The velocity of the material point of body 1 at the contact point less that of body
+    /// 2 (world frame), from the bodies' rotations and arms (`Jacobian::Lever`).
+    fn lever_velocity(
+        &self,
+        rotation: &[Matrix3<f64>; 2],
+        arm: &[Vector3<f64>; 2],
+        v: &[f64],
+    ) -> Vector3<f64> {
+        let mut w = Vector3::zeros();
+        for (k, (body, sign)) in [(self.body1, 1.0), (self.body2, -1.0)]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(i) = body {
+                let (lin, ang) = (vector3_at(v, 6 * i), vector3_at(v, 6 * i + 3));
+                w += (lin + arm[k].cross(&(rotation[k] * ang))) * sign;
+            }
+        }
+        w
     }
 
     pub fn gap(&self) -> f64 {
@@ -612,6 +632,12 @@ mod tests {
         let (n1, n2) = cp.normal_rows();
         assert_relative_eq!(n1, g1.row(0).into_owned(), epsilon = 1e-15);
         assert_relative_eq!(n2, g2.row(0).into_owned(), epsilon = 1e-15);
+        // u_N alone is the full velocity's first entry, to the bit, for levers and given rows
+        assert_eq!(cp.normal_velocity(&v).to_bits(), u.x.to_bits());
+        let rows = ContactPoint::with_normal_rows(cp.geometry, Some(0), Some(1), n1, n2, 0.0);
+        let given = rows.local_velocity(&v);
+        assert_eq!(rows.normal_velocity(&v).to_bits(), given.x.to_bits());
+        assert_relative_eq!(given.x, u.x, epsilon = 1e-14);
         assert_relative_eq!(
             cp.gap(),
             (poses[0].point(&Vector3::new(0.01, 0.02, 0.0)) - poses[1].x).norm() - 0.3,
