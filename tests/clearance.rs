@@ -724,3 +724,91 @@ fn a_selection_of_candidates_evaluates_as_all_of_them_do() {
         assert_eq!(format!("{p:?}"), format!("{:?}", every[i]), "candidate {i}");
     }
 }
+
+/// The bound a step uses to pass over guards (`ClearanceJoint::ring_speed_bound`) holds at
+/// every point of the ring for bore and journal on two moving bodies, posed and moving at
+/// random, and a journal sliding along a ring point's normal attains it.
+#[test]
+fn a_rings_speed_bound_holds_at_its_every_point_and_is_attained() {
+    use mc_study::mechanics::contact::clearance::ClearanceJoint;
+    use mc_study::mechanics::Pose;
+    let joint = ClearanceJoint {
+        name: "J".into(),
+        bore_body: Some(0),
+        journal_body: Some(1),
+        bore_center: Vector3::new(0.01, -0.02, 0.03),
+        bore_axis: Vector3::new(0.0, 1.0, 0.0),
+        bore_length: 0.012,
+        journal_point: Vector3::new(-0.02, 0.01, 0.0),
+        journal_axis: Vector3::new(0.0, 0.0, 1.0),
+        journal_radius: 0.005,
+        clearance: 1e-4,
+        axial_play: 2e-4,
+        flange_radius: 0.008,
+        rim_points: 4,
+        mu: 0.2,
+        e: 0.5,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut unit = || rng.random_range(-1.0..1.0);
+    for _ in 0..200 {
+        // the journal's axis within a few milliradians of the bore's, its point within the
+        // clearance of the bore's centre
+        let bore = Pose {
+            x: Vector3::new(unit(), unit(), unit()) * 0.3,
+            p: UnitQuaternion::from_euler_angles(3.0 * unit(), 3.0 * unit(), 3.0 * unit()),
+        };
+        let tilt = UnitQuaternion::from_euler_angles(3e-3 * unit(), 3e-3 * unit(), 0.0);
+        let p = bore.p
+            * UnitQuaternion::rotation_between(&joint.journal_axis, &joint.bore_axis).unwrap()
+            * tilt;
+        let offset = Vector3::new(unit(), unit(), unit()) * 5e-5;
+        let journal = Pose {
+            x: bore.point(&joint.bore_center) + offset - p * joint.journal_point,
+            p,
+        };
+        let poses = [bore, journal];
+        let v: Vec<f64> = (0..12)
+            .map(|k| unit() * if k % 6 < 3 { 1.0 } else { 20.0 })
+            .collect();
+        for k in (0..joint.candidates()).filter(|&k| k < 2 || joint.is_guard(k)) {
+            let side = match k {
+                0 => -1.0,
+                1 => 1.0,
+                _ => joint.guard(k).0,
+            };
+            let bound = joint.ring_speed_bound(side, &poses, &v);
+            let speed = joint.evaluate(k, &poses).normal_velocity(&v).abs();
+            assert!(
+                speed <= bound * (1.0 + 1e-12),
+                "point {k}: |u_N| = {speed:e} above the bound {bound:e}"
+            );
+        }
+        // the journal turning about the − ring's centre, the bore at rest: the ring's points
+        // move only by the turn, which the bound's second term must cover
+        let centre = bore.point(&(joint.bore_center - joint.bore_axis * (0.5 * joint.bore_length)));
+        let omega = Vector3::new(unit(), unit(), unit()) * 20.0;
+        let mut turning = [0.0; 12];
+        turning[6..9].copy_from_slice((-omega.cross(&(centre - journal.x))).as_slice());
+        turning[9..12].copy_from_slice((journal.p.inverse() * omega).as_slice());
+        let bound = joint.ring_speed_bound(-1.0, &poses, &turning);
+        let fastest = (0..joint.candidates())
+            .filter(|&k| k == 0 || (joint.is_guard(k) && joint.guard(k).0 < 0.0))
+            .map(|k| joint.evaluate(k, &poses).normal_velocity(&turning).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            fastest <= bound * (1.0 + 1e-12) && fastest > 1e-6 * bound,
+            "{fastest:e} {bound:e}"
+        );
+        // the journal sliding along the − ring's closest point's normal, the bore at rest
+        let n = joint.evaluate(0, &poses).normal();
+        let mut sliding = [0.0; 12];
+        sliding[6..9].copy_from_slice((n * 0.3).as_slice());
+        let bound = joint.ring_speed_bound(-1.0, &poses, &sliding);
+        let speed = joint.evaluate(0, &poses).normal_velocity(&sliding).abs();
+        assert!(
+            (bound - 0.3).abs() < 1e-12 && (speed - 0.3).abs() < 1e-12,
+            "{bound} {speed}"
+        );
+    }
+}

@@ -27,6 +27,9 @@ struct Lists {
     /// Per candidate: in the velocity problem; closed at the step's end.
     in_active: Vec<bool>,
     closed: Vec<bool>,
+    /// Per ring, how far the step can move any of its points along their normals (h times
+    /// the θ-weighted bound of `ClearanceJoint::ring_speed_bound`).
+    travel: Vec<f64>,
     /// Per ring crossed, its most crossed guard: (ring, candidate, gap).
     worst: Vec<(usize, usize, f64)>,
     /// The active contacts the projection takes, and the candidates that closed.
@@ -58,6 +61,7 @@ impl Simulation {
         let Lists {
             in_active,
             closed,
+            travel,
             worst,
             pool,
             new,
@@ -72,6 +76,18 @@ impl Simulation {
             // each such ring in the velocity problem and solve again (the guards are far from
             // contact otherwise, so this never happens while h·v stays below the clearance).
             // One per ring and pass keeps the problem small and its Delassus matrix regular.
+            // A guard whose gap, less 1.5 times the farthest its ring's points can travel
+            // along their normals in the step, stays above a quarter of the depth below
+            // zero cannot be crossed: its speeds are not formed (the factor and the quarter
+            // leave room for rounding).
+            travel.clear();
+            travel.extend(self.model.clearance_joints.iter().flat_map(|j| {
+                [-1.0, 1.0].map(|side| {
+                    let bound = |v: &[f64]| j.ring_speed_bound(side, &self.state.poses, v);
+                    let (b0, b1) = (bound(self.state.v.as_slice()), bound(vs.v.as_slice()));
+                    p.h * ((1.0 - p.theta).abs() * b0 + p.theta.abs() * b1)
+                })
+            }));
             worst.clear();
             for (i, ring) in self.guard_ring.iter().enumerate() {
                 let Some(ring) = *ring else { continue };
@@ -79,10 +95,14 @@ impl Simulation {
                     continue;
                 }
                 let c = &self.points[i];
+                let depth = GUARD_DEPTH * self.model.clearance_joints[ring / 2].clearance;
+                if c.gap() - 1.5 * travel[ring] > -0.25 * depth {
+                    continue;
+                }
                 let u0 = c.normal_velocity(self.state.v.as_slice());
                 let u1 = c.normal_velocity(vs.v.as_slice());
                 let end_gap = c.gap() + p.h * ((1.0 - p.theta) * u0 + p.theta * u1);
-                if end_gap < -GUARD_DEPTH * self.model.clearance_joints[ring / 2].clearance {
+                if end_gap < -depth {
                     match worst.iter_mut().find(|w| w.0 == ring) {
                         Some(w) if end_gap < w.2 => *w = (ring, i, end_gap),
                         Some(_) => {}
@@ -202,6 +222,7 @@ mod tests {
                     super::LISTS.set(Some(Box::new(super::Lists {
                         in_active: vec![true; 40],
                         closed: vec![true; 40],
+                        travel: vec![-1.0; 9],
                         worst: vec![(7, 7, f64::NAN); 5],
                         pool: vec![39; 12],
                         new: vec![38; 12],

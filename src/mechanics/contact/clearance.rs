@@ -15,6 +15,7 @@
 
 use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
+use crate::math::blocks::vector3_at;
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::Pose;
 use nalgebra::Vector3;
@@ -230,6 +231,28 @@ impl ClearanceJoint {
             g2: point_row(&dir, pj, &foot),
             kappa: 1.0 / offset,
         }
+    }
+
+    /// An upper bound on the normal speed |u_N| of every point of ring `side` (−1 or +1)
+    /// against the journal, for the twists `v` at `poses`: |w| + |Ω_B − Ω_J| R_B, with w
+    /// the relative velocity of the two bodies' material points at the ring's centre and Ω
+    /// their angular velocities (a ring point is R_B from the centre). It lets a step pass
+    /// over the guards that it cannot carry the journal across without forming their
+    /// speeds.
+    pub fn ring_speed_bound(&self, side: f64, poses: &[Pose], v: &[f64]) -> f64 {
+        let pose = |r: BodyRef| r.map_or(Pose::identity(), |i| poses[i]);
+        let centre = pose(self.bore_body)
+            .point(&(self.bore_center + self.bore_axis * (side * 0.5 * self.bore_length)));
+        // the velocity of a body's material point at the centre, and its angular velocity
+        let motion = |r: BodyRef| {
+            r.map_or((Vector3::zeros(), Vector3::zeros()), |i| {
+                let omega = poses[i].p * vector3_at(v, 6 * i + 3);
+                let at_centre = vector3_at(v, 6 * i) + omega.cross(&(centre - poses[i].x));
+                (at_centre, omega)
+            })
+        };
+        let ((w_b, omega_b), (w_j, omega_j)) = (motion(self.bore_body), motion(self.journal_body));
+        (w_b - w_j).norm() + (omega_b - omega_j).norm() * self.bore_radius()
     }
 
     /// The bore's centre (mid-length, on its axis) in the world at `poses`.
