@@ -3,6 +3,7 @@
 //! joints, and the frame's own shapes. Written by hand: a drawing in millimetres is a few
 //! polygons and circles, which a plotting library would only wrap.
 
+use crate::mechanics::body::pose_of;
 use crate::mechanics::contact::Primitive;
 use crate::mechanics::{Model, Pose};
 use nalgebra::{Matrix3, Vector2, Vector3};
@@ -201,7 +202,6 @@ fn shape_items(
 }
 
 fn items(model: &Model, poses: &[Pose], view: View) -> Vec<Item> {
-    let pose_of = |b: Option<usize>| b.map_or(Pose::identity(), |i| poses[i]);
     let mut out = Vec::new();
     for (i, b) in model.bodies.iter().enumerate() {
         let half = inertia_box(b.mass, &b.inertia) / 2.0;
@@ -217,12 +217,12 @@ fn items(model: &Model, poses: &[Pose], view: View) -> Vec<Item> {
         ));
     }
     for c in &model.contacts {
-        shape_items(view, &pose_of(c.body1), &c.shape1, "shape", &mut out);
-        shape_items(view, &pose_of(c.body2), &c.shape2, "shape", &mut out);
+        shape_items(view, &pose_of(c.body1, poses), &c.shape1, "shape", &mut out);
+        shape_items(view, &pose_of(c.body2, poses), &c.shape2, "shape", &mut out);
     }
     for j in &model.clearance_joints {
-        let bore = pose_of(j.bore_body).point(&j.bore_center);
-        let journal = pose_of(j.journal_body).point(&j.journal_point);
+        let bore = pose_of(j.bore_body, poses).point(&j.bore_center);
+        let journal = pose_of(j.journal_body, poses).point(&j.journal_point);
         out.push(Item::Circle(view.project(&bore), j.bore_radius(), "bore"));
         out.push(Item::Circle(
             view.project(&journal),
@@ -232,7 +232,7 @@ fn items(model: &Model, poses: &[Pose], view: View) -> Vec<Item> {
         out.push(Item::Label(view.project(&bore), j.name.clone()));
     }
     for j in &model.joints {
-        let p = pose_of(j.a).point(&j.anchor_a);
+        let p = pose_of(j.a, poses).point(&j.anchor_a);
         out.push(Item::Circle(view.project(&p), 3e-4, "journal"));
     }
     for (i, b) in model.bodies.iter().enumerate() {

@@ -8,6 +8,11 @@ use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector6};
 /// A body index, or `None` for the ground (the fixed inertial frame).
 pub type BodyRef = Option<usize>;
 
+/// The pose of body `r` among `poses`; the ground's (the identity) for `None`.
+pub fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
+    r.map_or(Pose::identity(), |i| poses[i])
+}
+
 /// Twist of a body as (v inertial, Ω body).
 pub type Twist = Vector6<f64>;
 

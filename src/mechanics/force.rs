@@ -3,7 +3,7 @@
 //! inertial frame, torque in the body frame) to the bodies it acts on, and reports its
 //! potential energy where it has one.
 
-use super::body::{BodyRef, Pose, Twist};
+use super::body::{pose_of, BodyRef, Pose, Twist};
 use crate::math::blocks::vector6_at;
 use crate::math::{any_orthogonal, skew};
 use nalgebra::{Matrix3, Vector3};
@@ -100,10 +100,6 @@ pub enum Force {
     Spring(PointSpring),
     Torsional(TorsionalSpring),
     External(ExternalLoad),
-}
-
-fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
-    r.map_or(Pose::identity(), |i| poses[i])
 }
 
 fn twist_of(r: BodyRef, v: &[f64]) -> Twist {

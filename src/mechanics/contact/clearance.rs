@@ -17,7 +17,7 @@ use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
 use crate::math::blocks::vector3_at;
 use crate::mechanics::body::BodyRef;
-use crate::mechanics::body::Pose;
+use crate::mechanics::body::{pose_of, Pose};
 use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -87,8 +87,10 @@ impl ClearanceJoint {
 
     /// The bore and journal frames in the world at `poses`.
     fn frames(&self, poses: &[Pose]) -> Frames {
-        let p = |r: BodyRef| r.map_or(Pose::identity(), |i| poses[i]);
-        let (pb, pj) = (p(self.bore_body), p(self.journal_body));
+        let (pb, pj) = (
+            pose_of(self.bore_body, poses),
+            pose_of(self.journal_body, poses),
+        );
         Frames {
             a_b: pb.dir(&self.bore_axis),
             a_j: pj.dir(&self.journal_axis),
@@ -240,8 +242,7 @@ impl ClearanceJoint {
     /// over the guards that it cannot carry the journal across without forming their
     /// speeds.
     pub fn ring_speed_bound(&self, side: f64, poses: &[Pose], v: &[f64]) -> f64 {
-        let pose = |r: BodyRef| r.map_or(Pose::identity(), |i| poses[i]);
-        let centre = pose(self.bore_body)
+        let centre = pose_of(self.bore_body, poses)
             .point(&(self.bore_center + self.bore_axis * (side * 0.5 * self.bore_length)));
         // the velocity of a body's material point at the centre, and its angular velocity
         let motion = |r: BodyRef| {

@@ -15,7 +15,7 @@ pub mod revolution;
 pub use primitives::{ContactGeometry, Primitive};
 
 use super::body::BodyRef;
-use super::body::Pose;
+use super::body::{pose_of, Pose};
 use crate::math::blocks::{vector3_at, vector6_at};
 use crate::math::{skew, tangent_basis};
 use nalgebra::{Matrix3, Matrix3x6, RowVector6, Vector3};
@@ -265,8 +265,7 @@ impl ContactPair {
 
     /// Geometry and Jacobian of candidate `k` at the given body poses.
     pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
-        let p1 = self.body1.map_or(Pose::identity(), |i| poses[i]);
-        let p2 = self.body2.map_or(Pose::identity(), |i| poses[i]);
+        let (p1, p2) = (pose_of(self.body1, poses), pose_of(self.body2, poses));
         let (f1, f2) = (BodyFrame::new(p1), BodyFrame::new(p2));
         // a pin on a profile carries the lateral curvature of a concave arc
         let pin_on_profile = match (&self.shape1, &self.shape2) {

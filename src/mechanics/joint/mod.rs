@@ -12,7 +12,7 @@ pub use profile::ScalarProfile;
 
 use crate::math::{any_orthogonal, skew};
 use crate::mechanics::body::BodyRef;
-use crate::mechanics::body::Pose;
+use crate::mechanics::body::{pose_of, Pose};
 use crate::mechanics::contact::{ContactGeometry, ContactPoint};
 use nalgebra::{RowVector6, Vector3};
 
@@ -95,10 +95,6 @@ pub struct BilateralRow {
     pub value: f64,
     pub rate: f64,
     pub unit: RowUnit,
-}
-
-fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
-    r.map_or(Pose::identity(), |i| poses[i])
 }
 
 impl Joint {
