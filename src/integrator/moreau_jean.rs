@@ -11,6 +11,7 @@ use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
 use super::simulation::hand_back_points;
+use crate::math::blocks::vector3;
 use crate::math::buffer::{self, copy_into, zeros};
 use crate::math::kept;
 use crate::mechanics::body::Twist;
@@ -545,7 +546,7 @@ const REACH: f64 = 1e3;
 /// `REACH` times the largest impulse that any one contact's free velocity calls for.
 fn reach(w: &DMatrix<f64>, q: &DVector<f64>) -> f64 {
     (0..q.len() / 3)
-        .map(|c| q.fixed_rows::<3>(3 * c).norm() / w[(3 * c, 3 * c)])
+        .map(|c| vector3(q, 3 * c).norm() / w[(3 * c, 3 * c)])
         .fold(0.0, f64::max)
         * REACH
 }

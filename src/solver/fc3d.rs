@@ -2,6 +2,7 @@
 //! K* ∋ û ⟂ r ∈ K, where K = {‖r_T‖ ≤ μ r_N} and û = u + (μ‖u_T‖, 0, 0)
 //! Components are ordered (N, T1, T2) per contact.
 
+use crate::math::blocks::vector3;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// A problem instance (borrowed).
@@ -88,9 +89,7 @@ pub fn natural_map_error_at(p: &Fc3d, r: &DVector<f64>, u: &DVector<f64>) -> f64
     for (a, &mu) in p.mu.iter().enumerate() {
         let o = 3 * a;
         let rho = contact_rho_in(p.w, a);
-        let ra = Vector3::new(r[o], r[o + 1], r[o + 2]);
-        let ua = Vector3::new(u[o], u[o + 1], u[o + 2]);
-        num += local_natural_map(&ra, &ua, mu, rho).norm_squared();
+        num += local_natural_map(&vector3(r, o), &vector3(u, o), mu, rho).norm_squared();
         rq += rho * rho * (p.q[o] * p.q[o] + p.q[o + 1] * p.q[o + 1] + p.q[o + 2] * p.q[o + 2]);
     }
     let scale = r.norm().max(rq.sqrt());
