@@ -3,7 +3,6 @@
 //! the step would carry a journal across its clearance; the joints and the pressed or
 //! penetrating contacts are then projected onto their manifolds.
 
-use super::moreau_jean::advance_poses;
 use super::projection::ContactRows;
 use super::simulation::{hand_back_points, spare_points, Closing, Outcome, Simulation, StepReport};
 use crate::math::kept;
@@ -115,7 +114,7 @@ impl Simulation {
                 active.sort_unstable();
                 continue;
             }
-            let mut poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
+            let mut poses = vs.poses.clone();
             // Project onto g = 0, as equalities, the active contacts that penetrate and those
             // that stay closed (pressed, not separating: u_N,k+1 ≤ e|u_N,k|/2). A contact that
             // rebounds (e > 0) and ended with g > 0 is left where it is: pulling it down onto
@@ -147,7 +146,7 @@ impl Simulation {
             // the last step's impulse): then let every active contact open, g ≥ 0, which
             // the start of the step satisfies, from the trial poses again.
             if !report.projection.converged {
-                poses = advance_poses(&self.state.poses, &self.state.v, &vs.v, p.h, p.theta);
+                poses.copy_from_slice(&vs.poses);
                 (report.projection, pool_points) =
                     self.project_poses(&mut poses, pool, &|_, _| true, ContactRows::Inequality);
             }
@@ -283,12 +282,17 @@ mod tests {
 
     /// The run's largest joint violations, which a step takes from its projection where it
     /// can, are those of fresh evaluations at every step's end, bit for bit: on the driven
-    /// four-bar (its rows depend on time) and on the slider-crank, whose impacts on its
-    /// clearance pin split steps.
+    /// four-bar (its rows depend on time), on the pendulum (its rows do not, and its
+    /// projection's time differs from the step's end in the last bit in about a third of
+    /// its steps) and on the slider-crank, whose impacts on its clearance pin split steps.
     #[test]
     fn a_step_records_the_joint_violations_of_its_end_poses() {
         use crate::integrator::projection::JointViolation;
-        for (name, duration) in [("four-bar", 0.3), ("slider-crank-clearance", 0.05)] {
+        for (name, duration) in [
+            ("four-bar", 0.3),
+            ("pendulum", 0.5),
+            ("slider-crank-clearance", 0.05),
+        ] {
             let mut sim = Scene::bundled_simulation(name);
             let (mut length, mut angle) = (
                 sim.stats.max_joint_violation,
@@ -305,7 +309,11 @@ mod tests {
                 );
             })
             .unwrap();
-            assert!(length > 0.0 && angle > 0.0, "{name}");
+            // the pendulum turns about its axis alone: its angle rows stay exactly zero
+            assert!(
+                length > 0.0 && (angle > 0.0 || name == "pendulum"),
+                "{name}"
+            );
         }
     }
 }

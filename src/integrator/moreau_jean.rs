@@ -74,6 +74,9 @@ impl<'a> ActiveContact<'a> {
 #[derive(Clone, Debug)]
 pub struct VelocityStep {
     pub v: DVector<f64>,
+    /// The poses at the step's end, q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁): the last Newton
+    /// iterate placed them there to test its residual.
+    pub poses: Vec<Pose>,
     /// Impulse (P_N, P_T1, P_T2) of each active contact, in its local frame.
     pub impulses: Vec<Vector3<f64>>,
     /// Each active contact's normal velocity u_N,k+1 at the step's end, measured along the
@@ -90,20 +93,8 @@ pub struct VelocityStep {
     pub plastic: bool,
 }
 
-/// Poses at the end of the step: q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁).
-pub fn advance_poses(
-    poses: &[Pose],
-    v0: &DVector<f64>,
-    v1: &DVector<f64>,
-    h: f64,
-    theta: f64,
-) -> Vec<Pose> {
-    let mut out = Vec::with_capacity(poses.len());
-    advance_poses_into(&mut out, poses, v0, v1, h, theta);
-    out
-}
-
-/// `advance_poses` into `out`, whose allocation the Newton iterations reuse.
+/// Poses at the end of the step, q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁), into `out`, whose
+/// allocation the Newton iterations reuse.
 fn advance_poses_into(
     out: &mut Vec<Pose>,
     poses: &[Pose],
@@ -469,7 +460,9 @@ pub fn velocity_step(
         true => q_joint.iter().copied().collect(),
         false => Vec::new(),
     };
+    // every pass of the Newton loop, the last included, starts by placing `poses1` at `v`
     VelocityStep {
+        poses: poses1.clone(),
         v,
         impulses,
         normal_speeds,
@@ -756,7 +749,7 @@ mod tests {
                     resid: nan(),
                     dv: nan(),
                     v_free: nan(),
-                    poses1: poses.clone(),
+                    poses1: vec![nan_pose; poses.len() + 1],
                     mid: vec![nan_pose; poses.len() + 1],
                     w,
                     elimination,

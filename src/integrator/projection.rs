@@ -8,7 +8,7 @@
 use super::rows;
 use crate::math::blocks::vector6_at;
 use crate::math::{buffer, kept};
-use crate::mechanics::joint::{BilateralRow, RowUnit};
+use crate::mechanics::joint::{BilateralRow, Joint, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
 use nalgebra::{DMatrix, DVector, Matrix6, RowVector6, Vector6};
@@ -58,6 +58,13 @@ impl JointViolation {
             }
         }
         v
+    }
+
+    /// Of the joints of `model` at time `t` and `poses`, from their rows' values alone.
+    pub fn at(model: &Model, t: f64, poses: &[Pose]) -> Self {
+        let mut rows = Vec::with_capacity(model.joints.iter().map(Joint::row_count).sum());
+        model.joint_row_values_into(t, poses, &mut rows);
+        Self::of(t, &rows)
     }
 }
 
@@ -161,6 +168,11 @@ impl ContactRowsOf {
 struct Evaluated {
     of: ContactRowsOf,
     njoint: usize,
+    /// Whether the joint rows carry their gradients, which only a linearisation reads: a
+    /// step tried is evaluated without them, and most steps kept end the projection.
+    gradients: bool,
+    /// Scratch of `with_gradients`.
+    full: Vec<BilateralRow>,
     /// Largest violation (the convergence test) and the sum of squares (the merit).
     max: f64,
     squares: f64,
@@ -171,7 +183,8 @@ impl Evaluated {
         &self.of.rows
     }
 
-    /// Re-evaluates the rows at `poses`, in place.
+    /// Re-evaluates the rows at `poses`, in place, the joint rows' gradients only if
+    /// `gradients`.
     fn at(
         &mut self,
         model: &Model,
@@ -179,11 +192,16 @@ impl Evaluated {
         poses: &[Pose],
         contacts: ContactRowsAt,
         mode: ContactRows,
+        gradients: bool,
     ) {
         self.of.rows.clear();
         self.of.curved.clear();
-        model.joint_rows_into(t, poses, &mut self.of.rows);
+        match gradients {
+            true => model.joint_rows_into(t, poses, &mut self.of.rows),
+            false => model.joint_row_values_into(t, poses, &mut self.of.rows),
+        }
         self.njoint = self.of.rows.len();
+        self.gradients = gradients;
         contacts(poses, &mut self.of);
         let (mut max, mut squares) = (0.0f64, 0.0);
         for (k, r) in self.of.rows.iter().enumerate() {
@@ -196,6 +214,17 @@ impl Evaluated {
             squares += v * v;
         }
         (self.max, self.squares) = (max, squares);
+    }
+
+    /// The joint rows' gradients, where `at` left them out: at the poses `at` was given.
+    fn with_gradients(&mut self, model: &Model, t: f64, poses: &[Pose]) {
+        if self.gradients {
+            return;
+        }
+        self.full.clear();
+        model.joint_rows_into(t, poses, &mut self.full);
+        self.of.rows[..self.njoint].copy_from_slice(&self.full);
+        self.gradients = true;
     }
 }
 
@@ -411,7 +440,7 @@ impl Steps<'_> {
                 }
             }));
         let Trial { poses, evaluated } = &mut trial;
-        evaluated.at(self.model, self.t, poses, self.contacts, self.mode);
+        evaluated.at(self.model, self.t, poses, self.contacts, self.mode, false);
         if evaluated.squares < self.squares {
             Some(trial)
         } else {
@@ -482,7 +511,7 @@ pub fn project(
     } = &mut *workspace;
     let ndof = 6 * model.bodies.len();
     let mut current = spare.pop().unwrap_or_default();
-    current.evaluated.at(model, t, poses, contacts, mode);
+    current.evaluated.at(model, t, poses, contacts, mode, true);
     let mut out = ProjectionOutcome {
         violation_before: current.evaluated.max,
         violation_after: current.evaluated.max,
@@ -503,6 +532,8 @@ pub fn project(
         // the Gauss–Newton step, full or half; where neither does its work and a contact's
         // gap bends sharply across its normal, the sequential-quadratic step in its place,
         // halved as needed
+        current.evaluated.with_gradients(model, t, poses);
+        let now = &current.evaluated;
         let linear = Linearised::new(now, minv, ndof, mode, tolerance, storage);
         linear.gauss_newton(gauss_newton);
         if gauss_newton.iter().any(|x| !x.is_finite()) {
@@ -625,6 +656,8 @@ mod tests {
                                 curved: vec![(3, row, nan)],
                             },
                             njoint: 7,
+                            gradients: true,
+                            full: vec![row; 40],
                             max: nan,
                             squares: nan,
                         },

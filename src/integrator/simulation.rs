@@ -5,7 +5,7 @@
 //! `impact.rs`.
 
 use super::moreau_jean::{
-    advance_poses, velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
+    velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
@@ -338,9 +338,12 @@ impl Simulation {
         }
         if !self.model.joints.is_empty() {
             let t = self.state.t;
-            let v = joints.filter(|v| v.t == t).unwrap_or_else(|| {
-                JointViolation::of(t, &self.model.joint_rows(t, &self.state.poses))
-            });
+            // rows that no drive moves are the same at any time: the projection's, at its
+            // own rounding of the step's end, hold for them
+            let timeless = self.model.joints.iter().all(|j| j.drive.is_none());
+            let v = joints
+                .filter(|v| v.t == t || timeless)
+                .unwrap_or_else(|| JointViolation::at(&self.model, t, &self.state.poses));
             let s = &mut self.stats;
             s.max_joint_violation = s.max_joint_violation.max(v.length);
             s.max_joint_angle_violation = s.max_joint_angle_violation.max(v.angle);
@@ -704,7 +707,7 @@ impl Simulation {
                     .filter(|&i| forecast(&self.points[i]))
                     .collect();
                 let vs = self.velocity(&active);
-                let mut poses = advance_poses(&self.state.poses, v0, &vs.v, p.h, p.theta);
+                let mut poses = vs.poses.clone();
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
                     report.projection = self

@@ -88,6 +88,13 @@ impl Model {
         }
     }
 
+    /// The joints' rows without their gradients (`Joint::row_values`), appended to `out`.
+    pub fn joint_row_values_into(&self, t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>) {
+        for j in &self.joints {
+            j.row_values(t, poses, out);
+        }
+    }
+
     /// Per-dof flag: integrated (true) or held fixed (false).
     pub fn dof_mask(&self) -> Vec<bool> {
         self.bodies.iter().flat_map(|b| b.dof_mask()).collect()
