@@ -16,6 +16,13 @@ pub fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
 /// Twist of a body as (v inertial, Ω body).
 pub type Twist = Vector6<f64>;
 
+/// Velocity of the material point currently at `x` (inertial) of a body at `pose` moving
+/// with twist `tw`: v + R Ω × (x − x_G).
+pub fn point_velocity(pose: &Pose, tw: &Twist, x: &Vector3<f64>) -> Vector3<f64> {
+    let omega = pose.p * tw.fixed_rows::<3>(3);
+    tw.fixed_rows::<3>(0) + omega.cross(&(x - pose.x))
+}
+
 /// Position and orientation of a body frame in the inertial frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose {

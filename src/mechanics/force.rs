@@ -3,7 +3,7 @@
 //! inertial frame, torque in the body frame) to the bodies it acts on, and reports its
 //! potential energy where it has one.
 
-use super::body::{pose_of, BodyRef, Pose, Twist};
+use super::body::{point_velocity, pose_of, BodyRef, Pose, Twist};
 use crate::math::blocks::vector6_at;
 use crate::math::{any_orthogonal, skew};
 use nalgebra::{Matrix3, Vector3};
@@ -104,12 +104,6 @@ pub enum Force {
 
 fn twist_of(r: BodyRef, v: &[f64]) -> Twist {
     r.map_or(Twist::zeros(), |i| vector6_at(v, 6 * i))
-}
-
-/// Velocity of the material point currently at `x` (inertial) of a body.
-fn point_velocity(pose: &Pose, tw: &Twist, x: &Vector3<f64>) -> Vector3<f64> {
-    let omega = pose.p * tw.fixed_rows::<3>(3);
-    tw.fixed_rows::<3>(0) + omega.cross(&(x - pose.x))
 }
 
 /// Adds the generalized wrench of an inertial force `f` applied at inertial point `x`.

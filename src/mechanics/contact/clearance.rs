@@ -15,9 +15,9 @@
 
 use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
-use crate::math::blocks::vector3_at;
+use crate::math::blocks::vector6_at;
 use crate::mechanics::body::BodyRef;
-use crate::mechanics::body::{pose_of, Pose};
+use crate::mechanics::body::{point_velocity, pose_of, Pose};
 use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -247,9 +247,9 @@ impl ClearanceJoint {
         // the velocity of a body's material point at the centre, and its angular velocity
         let motion = |r: BodyRef| {
             r.map_or((Vector3::zeros(), Vector3::zeros()), |i| {
-                let omega = poses[i].p * vector3_at(v, 6 * i + 3);
-                let at_centre = vector3_at(v, 6 * i) + omega.cross(&(centre - poses[i].x));
-                (at_centre, omega)
+                let tw = vector6_at(v, 6 * i);
+                let omega = poses[i].p * tw.fixed_rows::<3>(3);
+                (point_velocity(&poses[i], &tw, &centre), omega)
             })
         };
         let ((w_b, omega_b), (w_j, omega_j)) = (motion(self.bore_body), motion(self.journal_body));
