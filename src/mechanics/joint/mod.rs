@@ -457,11 +457,9 @@ mod tests {
         )
     }
 
-    /// Every row's gradient is the derivative of its value along any twist (finite
-    /// differences through the Lie-group update), at a configuration off the manifold.
-    #[test]
-    fn row_gradients_match_finite_differences() {
-        let poses = vec![
+    /// Two bodies turned and moved off any joint's assembled configuration.
+    fn off_assembly() -> Vec<Pose> {
+        vec![
             Pose {
                 x: Vector3::new(0.1, -0.2, 0.3),
                 p: UnitQuaternion::from_euler_angles(0.2, -0.3, 0.4),
@@ -470,7 +468,14 @@ mod tests {
                 x: Vector3::new(0.5, 0.1, -0.1),
                 p: UnitQuaternion::from_euler_angles(-0.1, 0.25, 1.0),
             },
-        ];
+        ]
+    }
+
+    /// Every row's gradient is the derivative of its value along any twist (finite
+    /// differences through the Lie-group update), at a configuration off the manifold.
+    #[test]
+    fn row_gradients_match_finite_differences() {
+        let poses = off_assembly();
         for kind in [
             JointKind::Revolute,
             JointKind::Prismatic,
@@ -522,16 +527,7 @@ mod tests {
     /// moves, and with the ground as either body.
     #[test]
     fn row_values_are_the_rows_without_gradients() {
-        let poses = vec![
-            Pose {
-                x: Vector3::new(0.1, -0.2, 0.3),
-                p: UnitQuaternion::from_euler_angles(0.2, -0.3, 0.4),
-            },
-            Pose {
-                x: Vector3::new(0.5, 0.1, -0.1),
-                p: UnitQuaternion::from_euler_angles(-0.1, 0.25, 1.0),
-            },
-        ];
+        let poses = off_assembly();
         let drive = Drive::Position(ScalarProfile::Rate {
             start: 0.1,
             rate: 2.0,
