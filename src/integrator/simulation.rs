@@ -689,14 +689,16 @@ impl Simulation {
     /// The step of size `self.h` from the current state, not yet taken.
     pub(super) fn compute(&self) -> Result<Outcome, SimError> {
         let p = self.step_params();
+        // poses a step ended at were checked when that step was computed
         let joints = &self.model.clearance_joints;
-        let start_checked = joints.is_empty() || self.state.poses == self.checked_poses;
-        for j in joints.iter().filter(|_| !start_checked) {
-            j.check(&self.state.poses)
-                .map_err(|message| SimError::Geometry {
-                    t: self.state.t,
-                    message,
-                })?;
+        if !joints.is_empty() && self.state.poses != self.checked_poses {
+            for j in joints {
+                j.check(&self.state.poses)
+                    .map_err(|message| SimError::Geometry {
+                        t: self.state.t,
+                        message,
+                    })?;
+            }
         }
         let v0 = &self.state.v;
         let forecast = |c: &ContactPoint| p.forecast(c, v0.as_slice()) <= p.activation_margin;
