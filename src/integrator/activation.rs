@@ -66,7 +66,7 @@ impl Simulation {
             new,
         } = &mut *lists;
         for pass in 1..=p.max_active_set_passes {
-            let vs = self.velocity(&active);
+            let mut vs = self.velocity(&active);
             in_active.clear();
             in_active.resize(self.points.len(), false);
             active.iter().for_each(|&i| in_active[i] = true);
@@ -139,16 +139,26 @@ impl Simulation {
             let closed = &*closed;
             let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
             let mut pool_points;
-            (report.projection, pool_points) =
-                self.project_poses(&mut poses, pool, &selected, ContactRows::Equality);
+            (report.projection, pool_points) = self.project_poses(
+                &mut poses,
+                pool,
+                &selected,
+                ContactRows::Equality,
+                vs.elimination.as_deref_mut(),
+            );
             // Held shut together, the closed contacts may admit no poses near the trial (a
             // tilted journal pressed on one flange and held at the other, 45 µm open, by
             // the last step's impulse): then let every active contact open, g ≥ 0, which
             // the start of the step satisfies, from the trial poses again.
             if !report.projection.converged {
                 poses.copy_from_slice(&vs.poses);
-                (report.projection, pool_points) =
-                    self.project_poses(&mut poses, pool, &|_, _| true, ContactRows::Inequality);
+                (report.projection, pool_points) = self.project_poses(
+                    &mut poses,
+                    pool,
+                    &|_, _| true,
+                    ContactRows::Inequality,
+                    vs.elimination.as_deref_mut(),
+                );
             }
             report.active_set_passes = pass;
             // activation from the end-of-step position (the pool's pair contacts and joint

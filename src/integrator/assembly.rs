@@ -214,6 +214,7 @@ pub fn assemble(
             ContactRows::Equality,
             TOLERANCE,
             ITERATIONS,
+            None,
         );
         assembly.iterations += outcome.iterations;
         assembly.residual = outcome.violation_after;

@@ -13,7 +13,7 @@ use super::params::IntegrationParameters;
 use super::simulation::hand_back_points;
 use crate::math::blocks::vector3;
 use crate::math::buffer::{self, copy_into, zeros};
-use crate::math::kept;
+use crate::math::kept::{self, Kept};
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -71,7 +71,6 @@ impl<'a> ActiveContact<'a> {
 }
 
 /// Result of the velocity step.
-#[derive(Clone, Debug)]
 pub struct VelocityStep {
     pub v: DVector<f64>,
     /// The poses at the step's end, q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁): the last Newton
@@ -87,6 +86,9 @@ pub struct VelocityStep {
     pub newton_converged: bool,
     /// Impulse of each bilateral row (joint reactions over the step).
     pub joint_impulses: Vec<f64>,
+    /// The joints' elimination the step ended with, factorised (`None` without joints):
+    /// the step's projection takes its first steps with it (`Elimination::chord_step`).
+    pub(super) elimination: Option<Kept<Elimination>>,
     /// Status of the last FC3D solve (the one whose impulses are applied).
     pub solver: SolverStatus,
     /// Its impacts were taken plastic (e = 0): with restitution, the contacts jammed.
@@ -236,7 +238,6 @@ pub fn velocity_step(
         poses1,
         mid,
         w,
-        elimination,
         q_free,
         q_joint,
         constrained,
@@ -299,7 +300,8 @@ pub fn velocity_step(
     }
     // the joints' rows, eliminated at every Newton iterate (the first one before anything
     // reads them), and their impulses in `q_joint`
-    let eliminated = joints.is_some();
+    let mut elimination = joints.map(|_| kept::take(&ELIMINATION));
+    let eliminated = elimination.is_some();
 
     let mut v = v0.clone();
     let mut status = SolverStatus {
@@ -324,7 +326,7 @@ pub fn velocity_step(
         resid.axpy(-h * (1.0 - theta), &*f0, 1.0);
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
-            let res = match eliminated.then_some(&*elimination) {
+            let res = match elimination.as_deref() {
                 Some(e) => {
                     e.unreacted(q_joint, resid, unreacted);
                     newton_residual(unreacted, &problem.g, r, mask)
@@ -376,7 +378,7 @@ pub fn velocity_step(
             hand_back_points(at_end);
         }
         // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
-        if let Some(rows_at) = joints {
+        if let (Some(rows_at), Some(elimination)) = (joints, elimination.as_deref_mut()) {
             elimination.assemble(w, rows_at, (t + 0.5 * h, mid), (t + h, poses1), mask);
             elimination.impulses_into(v_free, q_free);
             copy_into(constrained, v_free);
@@ -398,7 +400,7 @@ pub fn velocity_step(
         // jam, those rebounds together are met only by impulses beyond the step's `reach`,
         // and they can give the bodies energy: the step then takes its impacts plastic.
         loop {
-            problem.assemble(w, eliminated.then_some(&*elimination), v_free_c, shift);
+            problem.assemble(w, elimination.as_deref(), v_free_c, shift);
             let nonsymmetric = problem.turned;
             let opts = match nonsymmetric {
                 true => NsgsOptions {
@@ -467,6 +469,7 @@ pub fn velocity_step(
         impulses,
         normal_speeds,
         joint_impulses,
+        elimination,
         newton_iterations: iterations,
         newton_converged: converged,
         solver: status,
@@ -490,7 +493,6 @@ struct Scratch {
     /// The poses at mid-step, where the joints' and the persistent contacts' impulses act.
     mid: Vec<Pose>,
     w: IterationMatrix,
-    elimination: Elimination,
     /// The joints' impulses for the free velocity, those of the last iterate, the free
     /// velocity under the joints, and the residual their impulses leave.
     q_free: DVector<f64>,
@@ -526,6 +528,9 @@ thread_local! {
     /// Taken by a velocity step and put back when it ends (a nested step would find none
     /// and make its own).
     static SCRATCH: kept::Slot<Scratch> = const { kept::Slot::new(None) };
+    /// The joints' elimination, taken by a velocity step with joints and put back when the
+    /// step's result, which hands it to the projection, is dropped.
+    static ELIMINATION: kept::Slot<Elimination> = const { kept::Slot::new(None) };
 }
 
 /// How many times the largest impulse that any one contact's free velocity calls for
@@ -752,7 +757,6 @@ mod tests {
                     poses1: vec![nan_pose; poses.len() + 1],
                     mid: vec![nan_pose; poses.len() + 1],
                     w,
-                    elimination,
                     q_free: stale(5),
                     q_joint: stale(5),
                     constrained: nan(),
@@ -763,6 +767,7 @@ mod tests {
                     r: stale(3),
                     before: stale(3),
                 })));
+                ELIMINATION.set(Some(Box::new(elimination)));
             }
             sim.run_until(duration, |_, _| {}).unwrap();
             sim.state

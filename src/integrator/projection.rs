@@ -2,7 +2,8 @@
 //! coordinates with the mass metric: with C the gradients of the projected rows,
 //! solve (C M⁻¹ Cᵀ) Λ = −c(q) (equality rows; complementarity for contacts in direct
 //! projection), Δν = M⁻¹ Cᵀ Λ and q ← q ⊕ Δν through the Lie-group update, so |p| = 1
-//! holds by construction. Iterated (Gauss–Newton) until the violation is below tolerance.
+//! holds by construction. Iterated (Gauss–Newton) until the violation is below tolerance;
+//! joints alone first take chord steps on the velocity step's factors (`ChordStep`).
 //! Velocities are not touched.
 
 use super::rows;
@@ -132,6 +133,12 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
         })
         .collect()
 }
+
+/// A correction Δν from the values c of the joint rows projected, into the vector given,
+/// that meets their linearisation, C Δν = −c (up to the rounding of its solve): where the
+/// velocity step has just factorised such rows (`Elimination::chord_step`), a chord step of
+/// the projection costs no factorisation of its own. False where it has none.
+pub type ChordStep<'a> = &'a mut dyn FnMut(&[f64], &mut DVector<f64>) -> bool;
 
 /// The contacts to project at some poses: `contacts(poses, rows)` evaluates them there and
 /// hands each to `ContactRowsOf::add`, which appends its rows (no list of points is made).
@@ -467,6 +474,8 @@ struct Workspace {
     spare: Vec<Trial>,
     linear: LinearStorage,
     gauss_newton: DVector<f64>,
+    /// The rows' values, for the chord step.
+    values: Vec<f64>,
 }
 
 thread_local! {
@@ -474,7 +483,8 @@ thread_local! {
 }
 
 /// Projects `poses` at time `t` onto the joints and the contacts `contacts` gives at the
-/// poses it is given.
+/// poses it is given, with the chord steps `chord` while only joints are projected and
+/// each at least halves the squared violation.
 ///
 /// Damped Gauss–Newton: the full step, else the half step, is kept where it at least
 /// halves the squared violation. Else, where a contact's gap bends sharply across its
@@ -502,12 +512,14 @@ pub fn project(
     mode: ContactRows,
     tolerance: f64,
     max_iterations: usize,
+    mut chord: Option<ChordStep>,
 ) -> ProjectionOutcome {
     let mut workspace = kept::take(&WORKSPACE);
     let Workspace {
         spare,
         linear: storage,
         gauss_newton,
+        values,
     } = &mut *workspace;
     let ndof = 6 * model.bodies.len();
     let mut current = spare.pop().unwrap_or_default();
@@ -528,6 +540,36 @@ pub fn project(
         }
         if it == max_iterations || now.rows().is_empty() {
             break;
+        }
+        // the chord step on the velocity step's elimination, while only joint rows are
+        // projected and it at least halves the squared violation, as a full Gauss–Newton
+        // step must; from the first that does not, Gauss–Newton
+        let joints_only = now.njoint == now.rows().len();
+        if let Some(chord_step) = chord.as_mut().filter(|_| joints_only) {
+            values.clear();
+            values.extend(now.rows().iter().map(|r| r.value));
+            let mut steps = Steps {
+                model,
+                t,
+                contacts,
+                mode,
+                from: poses,
+                squares: now.squares,
+                spare,
+            };
+            let step = match chord_step(values, gauss_newton) {
+                true => steps.try_step(gauss_newton, 1.0),
+                false => None,
+            };
+            match step {
+                Some(next) if next.evaluated.squares <= 0.5 * now.squares => {
+                    poses.copy_from_slice(&next.poses);
+                    spare.push(std::mem::replace(&mut current, next));
+                    continue;
+                }
+                step => steps.give_back([step]),
+            }
+            chord = None;
         }
         // the Gauss–Newton step, full or half; where neither does its work and a contact's
         // gap bends sharply across its normal, the sequential-quadratic step in its place,
@@ -618,6 +660,19 @@ mod tests {
     use crate::scene::Scene;
     use nalgebra::{UnitQuaternion, Vector3};
 
+    /// The driven four-bar's poses knocked off its assembly by millimetres and
+    /// hundredths of a radian.
+    fn knocked(assembled: &[Pose]) -> Vec<Pose> {
+        assembled
+            .iter()
+            .enumerate()
+            .map(|(b, q)| Pose {
+                x: q.x + Vector3::new(1e-3, -2e-3, 5e-4) * (b + 1) as f64,
+                p: UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)) * q.p,
+            })
+            .collect()
+    }
+
     /// The driven four-bar (a closed loop: its 21 joint rows are redundant), knocked off
     /// its assembly, comes back onto its joints: to the tolerance, no farther from the
     /// knocked poses than the assembly is (the projection finds the nearest admissible
@@ -627,14 +682,7 @@ mod tests {
     fn a_projection_reads_nothing_an_earlier_one_left() {
         let sim = Scene::bundled_simulation("four-bar");
         let (t, assembled) = (sim.state.t, sim.state.poses.clone());
-        let knocked: Vec<Pose> = assembled
-            .iter()
-            .enumerate()
-            .map(|(b, q)| Pose {
-                x: q.x + Vector3::new(1e-3, -2e-3, 5e-4) * (b + 1) as f64,
-                p: UnitQuaternion::from_scaled_axis(Vector3::new(0.01, -0.02, 0.015)) * q.p,
-            })
-            .collect();
+        let knocked = knocked(&assembled);
         let tolerance = sim.params.projection_tolerance;
         let project_on = |poison: bool| {
             let (sim, mut poses) = (sim.clone(), knocked.clone());
@@ -672,6 +720,7 @@ mod tests {
                             work: vec![nan; 120],
                         },
                         gauss_newton: DVector::from_element(54, nan),
+                        values: vec![nan; 7],
                     })));
                 }
                 let out = project(
@@ -684,6 +733,7 @@ mod tests {
                     ContactRows::Equality,
                     tolerance,
                     20,
+                    None,
                 );
                 (out, poses)
             })
@@ -706,5 +756,69 @@ mod tests {
         let (out2, poses2) = project_on(true);
         assert_eq!(out, out2);
         assert_eq!(poses, poses2);
+    }
+
+    /// A chord step is kept only where it at least halves the squared violation. The chord
+    /// of an elimination formed at the knocked four-bar's poses (the Gauss–Newton step but
+    /// for its iteration matrix) takes them onto the joints, to the same nearest poses as
+    /// Gauss–Newton. One that overshoots (three times that step), or that has none, leaves
+    /// the projection to Gauss–Newton from where it stood: bit for bit the same poses.
+    #[test]
+    fn a_chord_step_is_kept_only_where_it_halves_the_violation() {
+        use super::super::elimination::Elimination;
+        use super::super::iteration_matrix::IterationMatrix;
+        let sim = Scene::bundled_simulation("four-bar");
+        let (t, h) = (sim.state.t, sim.params.h);
+        let knocked = knocked(&sim.state.poses);
+        let tolerance = sim.params.projection_tolerance;
+        let run = |chord: Option<ChordStep>| {
+            let mut poses = knocked.clone();
+            let out = project(
+                &sim.model,
+                &sim.mask,
+                &sim.minv,
+                t,
+                &mut poses,
+                &|_, _| {},
+                ContactRows::Equality,
+                tolerance,
+                20,
+                chord,
+            );
+            (out, poses)
+        };
+        let (plain_out, plain) = run(None);
+        let mut w = IterationMatrix::default();
+        let rest = DVector::zeros(sim.state.v.len());
+        w.assemble(&sim.model, &sim.mask, t, &knocked, &rest, h, 0.5, 0.0);
+        let mut elimination = Elimination::default();
+        let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {
+            sim.model.joint_rows_into(t, poses, out)
+        };
+        let at = (t, knocked.as_slice());
+        elimination.assemble(&w, &rows_at, at, at, &sim.mask);
+
+        let mut kept = 0;
+        let (out, poses) = run(Some(&mut |c: &[f64], dnu: &mut DVector<f64>| {
+            kept += 1;
+            elimination.chord_step(c, dnu)
+        }));
+        assert!(out.converged && plain_out.converged, "{out:?}");
+        assert!(out.violation_after <= tolerance, "{out:?}");
+        let moved = mass_distance(&sim.model, &knocked, &plain);
+        let apart = mass_distance(&sim.model, &poses, &plain);
+        assert!(
+            kept >= 2 && apart <= 1e-6 * moved,
+            "{kept}: {apart} of {moved}"
+        );
+
+        let overshoot = run(Some(&mut |c: &[f64], dnu: &mut DVector<f64>| {
+            let made = elimination.chord_step(c, dnu);
+            *dnu *= 3.0;
+            made
+        }));
+        assert_eq!(overshoot, (plain_out, plain.clone()));
+        let none = run(Some(&mut |_: &[f64], _: &mut DVector<f64>| false));
+        assert_eq!(none, (plain_out, plain));
     }
 }

@@ -4,14 +4,15 @@
 //! activation loop is in `activation.rs`, the splitting of a step at an impact in
 //! `impact.rs`.
 
+use super::elimination::Elimination;
 use super::moreau_jean::{
     velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
 use super::projection::{
-    inverse_mass, mass_distance, mass_distance_of_length, project, ContactRows, ContactRowsOf,
-    JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
+    inverse_mass, mass_distance, mass_distance_of_length, project, ChordStep, ContactRows,
+    ContactRowsOf, JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
 };
 use super::schedule::Schedule;
 use crate::math::kept;
@@ -19,7 +20,7 @@ use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::SolverStatus;
-use nalgebra::{Matrix6, Vector3};
+use nalgebra::{DVector, Matrix6, Vector3};
 use std::cell::RefCell;
 
 /// Diagnostics of one step.
@@ -567,17 +568,20 @@ impl Simulation {
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
-    /// indices) that `which` chooses, given their contact points at those poses. Also
-    /// returns the pool's points at the poses it leaves, when it evaluated them there (a
-    /// projection that finds the poses admissible leaves them as they are).
+    /// indices) that `which` chooses, given their contact points at those poses, with the
+    /// chord steps of the step's joint elimination `chord` (`project`). Also returns the
+    /// pool's points at the poses it leaves, when it evaluated them there (a projection that
+    /// finds the poses admissible leaves them as they are).
     pub(super) fn project_poses(
         &self,
         poses: &mut [Pose],
         pool: &[usize],
         which: &dyn Fn(usize, &ContactPoint) -> bool,
         mode: ContactRows,
+        chord: Option<&mut Elimination>,
     ) -> (ProjectionOutcome, Option<Vec<ContactPoint>>) {
         let model = &self.model;
+        let mut chord = chord.map(|e| |c: &[f64], dnu: &mut DVector<f64>| e.chord_step(c, dnu));
         if model.joints.is_empty() && pool.is_empty() {
             // nothing to project: what `project` reports for no rows
             let outcome = ProjectionOutcome {
@@ -622,6 +626,7 @@ impl Simulation {
             mode,
             self.params.projection_tolerance,
             self.params.projection_max_iterations,
+            chord.as_mut().map(|c| -> ChordStep { c }),
         );
         // Where the start of the step is admissible, the nearest admissible poses are no
         // farther from the trial than it is. A projection that lands farther has found
@@ -708,12 +713,19 @@ impl Simulation {
                 let active: Vec<usize> = (0..self.points.len())
                     .filter(|&i| forecast(&self.points[i]))
                     .collect();
-                let vs = self.velocity(&active);
+                let mut vs = self.velocity(&active);
                 let mut poses = vs.poses.clone();
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
+                    let chord = vs.elimination.as_deref_mut();
                     report.projection = self
-                        .project_poses(&mut poses, &active, &|_, _| true, ContactRows::Inequality)
+                        .project_poses(
+                            &mut poses,
+                            &active,
+                            &|_, _| true,
+                            ContactRows::Inequality,
+                            chord,
+                        )
                         .0;
                 }
                 Outcome {
