@@ -122,8 +122,10 @@ impl Elimination {
     /// values `values` (c, in the order of the rows), into `dnu`. It meets H Δν = −c, so it
     /// removes the violation to first order as the Gauss–Newton step M⁻¹Cᵀ(C M⁻¹Cᵀ)⁻¹(−c)
     /// does, along directions that differ from it by O(h), with the factors this step has
-    /// already formed. False where the rows are not these (another count) or the solve
-    /// fails.
+    /// already formed. S is solved once, without the refinement the joints' impulses take:
+    /// the projection evaluates the rows where the step lands and keeps it only if it
+    /// halves their violation. False where the rows are not these (another count) or the
+    /// solve fails.
     pub(super) fn chord_step(&mut self, values: &[f64], dnu: &mut DVector<f64>) -> bool {
         if values.is_empty() || values.len() != self.h.len() {
             return false;
@@ -131,7 +133,7 @@ impl Elimination {
         let q = &mut self.chord;
         buffer::fit(q, values.len());
         q.iter_mut().zip(values).for_each(|(q, c)| *q = -c);
-        self.schur.solve_in_place(q.as_mut_slice(), &mut self.work);
+        self.schur.solve_unrefined_in_place(q.as_mut_slice());
         buffer::fit(dnu, 6 * (self.z_start.len() - 1));
         dnu.fill(0.0);
         self.add_response(&self.chord, dnu);

@@ -102,6 +102,14 @@ impl EqualitySolver {
         }
     }
 
+    /// Overwrites `b` with the solution of the regularised system, without refinement;
+    /// NaN if it is singular.
+    pub fn solve_unrefined_in_place(&self, b: &mut [f64]) {
+        if !self.lu.solve_in_place(b) {
+            b.fill(f64::NAN);
+        }
+    }
+
     /// Solves for several right-hand sides at once (columns).
     pub fn solve_matrix(&self, rhs: &DMatrix<f64>) -> DMatrix<f64> {
         let mut out = rhs.clone();
