@@ -104,7 +104,10 @@ impl Simulation {
                 member[k] || k == i || (!self.is_guard(k) && self.points[k].gap() <= margin)
             })
             .collect();
-        let vs = self.velocity(&active);
+        let mut vs = self.velocity(&active);
+        // nothing is projected at the impact: the elimination's storage back to the thread,
+        // for the velocity steps of the rest of the step
+        vs.elimination = None;
         if vs.v.iter().any(|x| !x.is_finite()) {
             return Err(SimError::NonFinite {
                 t: self.state.t,

@@ -523,7 +523,10 @@ pub fn project(
     } = &mut *workspace;
     let ndof = 6 * model.bodies.len();
     let mut current = spare.pop().unwrap_or_default();
-    current.evaluated.at(model, t, poses, contacts, mode, true);
+    // a chord step needs the rows' values alone
+    current
+        .evaluated
+        .at(model, t, poses, contacts, mode, chord.is_none());
     let mut out = ProjectionOutcome {
         violation_before: current.evaluated.max,
         violation_after: current.evaluated.max,

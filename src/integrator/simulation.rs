@@ -581,7 +581,11 @@ impl Simulation {
         chord: Option<&mut Elimination>,
     ) -> (ProjectionOutcome, Option<Vec<ContactPoint>>) {
         let model = &self.model;
-        let mut chord = chord.map(|e| |c: &[f64], dnu: &mut DVector<f64>| e.chord_step(c, dnu));
+        // chord steps are for joints alone: a pool of contacts may have some projected, and
+        // a projection that may need Gauss–Newton starts from the rows' gradients
+        let mut chord = chord
+            .filter(|_| pool.is_empty())
+            .map(|e| |c: &[f64], dnu: &mut DVector<f64>| e.chord_step(c, dnu));
         if model.joints.is_empty() && pool.is_empty() {
             // nothing to project: what `project` reports for no rows
             let outcome = ProjectionOutcome {
@@ -728,6 +732,8 @@ impl Simulation {
                         )
                         .0;
                 }
+                // the elimination's storage back to the thread, for the next velocity step
+                vs.elimination = None;
                 Outcome {
                     active,
                     vs,
