@@ -160,8 +160,6 @@ impl Simulation {
                     vs.elimination.as_deref_mut(),
                 );
             }
-            // the elimination's storage back to the thread, for the next velocity step
-            vs.elimination = None;
             report.active_set_passes = pass;
             // activation from the end-of-step position (the pool's pair contacts and joint
             // stops as the projection left them)

@@ -2,7 +2,7 @@
 //! which a contact closes is redone as the part before the impact, the impact itself (a
 //! step of length 0: Moreau's impact law alone) and the rest of the step.
 
-use super::moreau_jean::VelocityStep;
+use super::moreau_jean::{hand_back_elimination, VelocityStep};
 use super::parts::{Depth, Sum};
 use super::projection::ProjectionOutcome;
 use super::simulation::{Outcome, SimError, Simulation, StepReport};
@@ -107,7 +107,7 @@ impl Simulation {
         let mut vs = self.velocity(&active);
         // nothing is projected at the impact: the elimination's storage back to the thread,
         // for the velocity steps of the rest of the step
-        vs.elimination = None;
+        hand_back_elimination(vs.elimination.take());
         if vs.v.iter().any(|x| !x.is_finite()) {
             return Err(SimError::NonFinite {
                 t: self.state.t,

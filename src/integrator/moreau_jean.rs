@@ -13,7 +13,7 @@ use super::params::IntegrationParameters;
 use super::simulation::hand_back_points;
 use crate::math::blocks::vector3;
 use crate::math::buffer::{self, copy_into, zeros};
-use crate::math::kept::{self, Kept};
+use crate::math::kept;
 use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -87,8 +87,9 @@ pub struct VelocityStep {
     /// Impulse of each bilateral row (joint reactions over the step).
     pub joint_impulses: Vec<f64>,
     /// The joints' elimination the step ended with, factorised (`None` without joints):
-    /// the step's projection takes its first steps with it (`Elimination::chord_step`).
-    pub(super) elimination: Option<Kept<Elimination>>,
+    /// the step's projection takes its first steps with it (`Elimination::chord_step`),
+    /// and `hand_back_elimination` keeps its storage for the next step.
+    pub(super) elimination: Option<Box<Elimination>>,
     /// Status of the last FC3D solve (the one whose impulses are applied).
     pub solver: SolverStatus,
     /// Its impacts were taken plastic (e = 0): with restitution, the contacts jammed.
@@ -300,7 +301,7 @@ pub fn velocity_step(
     }
     // the joints' rows, eliminated at every Newton iterate (the first one before anything
     // reads them), and their impulses in `q_joint`
-    let mut elimination = joints.map(|_| kept::take(&ELIMINATION));
+    let mut elimination = joints.map(|_| ELIMINATION.take().unwrap_or_default());
     let eliminated = elimination.is_some();
 
     let mut v = v0.clone();
@@ -528,9 +529,17 @@ thread_local! {
     /// Taken by a velocity step and put back when it ends (a nested step would find none
     /// and make its own).
     static SCRATCH: kept::Slot<Scratch> = const { kept::Slot::new(None) };
-    /// The joints' elimination, taken by a velocity step with joints and put back when the
-    /// step's result, which hands it to the projection, is dropped.
+    /// The joints' elimination, taken by a velocity step with joints and handed on with its
+    /// result to the projection (`hand_back_elimination`).
     static ELIMINATION: kept::Slot<Elimination> = const { kept::Slot::new(None) };
+}
+
+/// Keeps the storage of a velocity step's elimination, once done with, for the next step on
+/// this thread (one dropped instead is only built again).
+pub(super) fn hand_back_elimination(elimination: Option<Box<Elimination>>) {
+    if let Some(e) = elimination {
+        ELIMINATION.set(Some(e));
+    }
 }
 
 /// How many times the largest impulse that any one contact's free velocity calls for

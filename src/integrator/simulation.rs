@@ -6,7 +6,8 @@
 
 use super::elimination::Elimination;
 use super::moreau_jean::{
-    velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
+    hand_back_elimination, velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart,
+    VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
@@ -732,8 +733,6 @@ impl Simulation {
                         )
                         .0;
                 }
-                // the elimination's storage back to the thread, for the next velocity step
-                vs.elimination = None;
                 Outcome {
                     active,
                     vs,
@@ -777,6 +776,8 @@ impl Simulation {
             ..
         } = outcome;
         self.record_contacts(&active, &vs);
+        // the elimination's storage back to the thread, for the next step's
+        hand_back_elimination(vs.elimination);
         self.joint_impulses = vs.joint_impulses;
         self.active = active;
         self.state = State { t, poses, v: vs.v };
