@@ -118,21 +118,21 @@ impl Elimination {
         self.h_bodies.extend((0..bodies).filter(|&b| self.on_h[b]));
     }
 
-    /// The chord step of a projection onto the same joints' rows: Δν = Z S⁻¹(−c) for their
-    /// values `values` (c, in the order of the rows), into `dnu`. It meets H Δν = −c, so it
+    /// The chord step of a projection onto the same joints' rows: Δν = Z S⁻¹(−c) for the
+    /// values c of `rows` (those rows at the poses projected), into `dnu`. It meets H Δν = −c, so it
     /// removes the violation to first order as the Gauss–Newton step M⁻¹Cᵀ(C M⁻¹Cᵀ)⁻¹(−c)
     /// does, along directions that differ from it by O(h), with the factors this step has
     /// already formed. S is solved once, without the refinement the joints' impulses take:
     /// the projection evaluates the rows where the step lands and keeps it only if it
     /// halves their violation. False where the rows are not these (another count) or the
     /// solve fails.
-    pub(super) fn chord_step(&mut self, values: &[f64], dnu: &mut DVector<f64>) -> bool {
-        if values.is_empty() || values.len() != self.h.len() {
+    pub(super) fn chord_step(&mut self, rows: &[BilateralRow], dnu: &mut DVector<f64>) -> bool {
+        if rows.is_empty() || rows.len() != self.h.len() {
             return false;
         }
         let q = &mut self.chord;
-        buffer::fit(q, values.len());
-        q.iter_mut().zip(values).for_each(|(q, c)| *q = -c);
+        buffer::fit(q, rows.len());
+        q.iter_mut().zip(rows).for_each(|(q, r)| *q = -r.value);
         self.schur.solve_unrefined_in_place(q.as_mut_slice());
         buffer::fit(dnu, 6 * (self.z_start.len() - 1));
         dnu.fill(0.0);
@@ -231,7 +231,7 @@ mod tests {
             let c = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.value));
             let mut chord = DVector::zeros(0);
             let elimination = vs.elimination.as_deref_mut().expect("joints");
-            assert!(elimination.chord_step(c.as_slice(), &mut chord), "{name}");
+            assert!(elimination.chord_step(&rows, &mut chord), "{name}");
             let left = DVector::from_iterator(
                 rows.len(),
                 rows.iter()

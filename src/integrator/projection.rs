@@ -134,11 +134,12 @@ pub fn inverse_mass(model: &Model, mask: &[bool]) -> Vec<Matrix6<f64>> {
         .collect()
 }
 
-/// A correction Δν from the values c of the joint rows projected, into the vector given,
-/// that meets their linearisation, C Δν = −c (up to the rounding of its solve): where the
-/// velocity step has just factorised such rows (`Elimination::chord_step`), a chord step of
-/// the projection costs no factorisation of its own. False where it has none.
-pub type ChordStep<'a> = &'a mut dyn FnMut(&[f64], &mut DVector<f64>) -> bool;
+/// A correction Δν from the joint rows projected (their values c are all it reads), into
+/// the vector given, that meets their linearisation, C Δν = −c (up to the rounding of its
+/// solve): where the velocity step has just factorised such rows
+/// (`Elimination::chord_step`), a chord step of the projection costs no factorisation of
+/// its own. False where it has none.
+pub type ChordStep<'a> = &'a mut dyn FnMut(&[BilateralRow], &mut DVector<f64>) -> bool;
 
 /// The contacts to project at some poses: `contacts(poses, rows)` evaluates them there and
 /// hands each to `ContactRowsOf::add`, which appends its rows (no list of points is made).
@@ -474,8 +475,6 @@ struct Workspace {
     spare: Vec<Trial>,
     linear: LinearStorage,
     gauss_newton: DVector<f64>,
-    /// The rows' values, for the chord step.
-    values: Vec<f64>,
 }
 
 thread_local! {
@@ -519,7 +518,6 @@ pub fn project(
         spare,
         linear: storage,
         gauss_newton,
-        values,
     } = &mut *workspace;
     let ndof = 6 * model.bodies.len();
     let mut current = spare.pop().unwrap_or_default();
@@ -544,23 +542,21 @@ pub fn project(
         if it == max_iterations || now.rows().is_empty() {
             break;
         }
+        let mut steps = Steps {
+            model,
+            t,
+            contacts,
+            mode,
+            from: poses,
+            squares: now.squares,
+            spare,
+        };
         // the chord step on the velocity step's elimination, while only joint rows are
         // projected and it at least halves the squared violation, as a full Gauss–Newton
         // step must; from the first that does not, Gauss–Newton
         let joints_only = now.njoint == now.rows().len();
         if let Some(chord_step) = chord.as_mut().filter(|_| joints_only) {
-            values.clear();
-            values.extend(now.rows().iter().map(|r| r.value));
-            let mut steps = Steps {
-                model,
-                t,
-                contacts,
-                mode,
-                from: poses,
-                squares: now.squares,
-                spare,
-            };
-            let step = match chord_step(values, gauss_newton) {
+            let step = match chord_step(now.rows(), gauss_newton) {
                 true => steps.try_step(gauss_newton, 1.0),
                 false => None,
             };
@@ -584,15 +580,6 @@ pub fn project(
         if gauss_newton.iter().any(|x| !x.is_finite()) {
             break;
         }
-        let mut steps = Steps {
-            model,
-            t,
-            contacts,
-            mode,
-            from: poses,
-            squares: now.squares,
-            spare,
-        };
         // a step that at least halves the squared violation (the linear model promises it
         // falls to nothing, a quarter for the half step) is kept outright: the
         // linearisation holds on its scale
@@ -676,6 +663,27 @@ mod tests {
             .collect()
     }
 
+    /// Projects `poses` onto the joints of `sim`'s model at its time and tolerance, with the
+    /// chord steps `chord`.
+    fn project_joints(
+        sim: &crate::integrator::Simulation,
+        poses: &mut [Pose],
+        chord: Option<ChordStep>,
+    ) -> ProjectionOutcome {
+        project(
+            &sim.model,
+            &sim.mask,
+            &sim.minv,
+            sim.state.t,
+            poses,
+            &|_, _| {},
+            ContactRows::Equality,
+            sim.params.projection_tolerance,
+            20,
+            chord,
+        )
+    }
+
     /// The driven four-bar (a closed loop: its 21 joint rows are redundant), knocked off
     /// its assembly, comes back onto its joints: to the tolerance, no farther from the
     /// knocked poses than the assembly is (the projection finds the nearest admissible
@@ -723,21 +731,9 @@ mod tests {
                             work: vec![nan; 120],
                         },
                         gauss_newton: DVector::from_element(54, nan),
-                        values: vec![nan; 7],
                     })));
                 }
-                let out = project(
-                    &sim.model,
-                    &sim.mask,
-                    &sim.minv,
-                    t,
-                    &mut poses,
-                    &|_, _| {},
-                    ContactRows::Equality,
-                    tolerance,
-                    20,
-                    None,
-                );
+                let out = project_joints(&sim, &mut poses, None);
                 (out, poses)
             })
             .join()
@@ -776,18 +772,7 @@ mod tests {
         let tolerance = sim.params.projection_tolerance;
         let run = |chord: Option<ChordStep>| {
             let mut poses = knocked.clone();
-            let out = project(
-                &sim.model,
-                &sim.mask,
-                &sim.minv,
-                t,
-                &mut poses,
-                &|_, _| {},
-                ContactRows::Equality,
-                tolerance,
-                20,
-                chord,
-            );
+            let out = project_joints(&sim, &mut poses, chord);
             (out, poses)
         };
         let (plain_out, plain) = run(None);
@@ -802,10 +787,12 @@ mod tests {
         elimination.assemble(&w, &rows_at, at, at, &sim.mask);
 
         let mut kept = 0;
-        let (out, poses) = run(Some(&mut |c: &[f64], dnu: &mut DVector<f64>| {
-            kept += 1;
-            elimination.chord_step(c, dnu)
-        }));
+        let (out, poses) = run(Some(
+            &mut |rows: &[BilateralRow], dnu: &mut DVector<f64>| {
+                kept += 1;
+                elimination.chord_step(rows, dnu)
+            },
+        ));
         assert!(out.converged && plain_out.converged, "{out:?}");
         assert!(out.violation_after <= tolerance, "{out:?}");
         let moved = mass_distance(&sim.model, &knocked, &plain);
@@ -815,13 +802,15 @@ mod tests {
             "{kept}: {apart} of {moved}"
         );
 
-        let overshoot = run(Some(&mut |c: &[f64], dnu: &mut DVector<f64>| {
-            let made = elimination.chord_step(c, dnu);
-            *dnu *= 3.0;
-            made
-        }));
+        let overshoot = run(Some(
+            &mut |rows: &[BilateralRow], dnu: &mut DVector<f64>| {
+                let made = elimination.chord_step(rows, dnu);
+                *dnu *= 3.0;
+                made
+            },
+        ));
         assert_eq!(overshoot, (plain_out, plain.clone()));
-        let none = run(Some(&mut |_: &[f64], _: &mut DVector<f64>| false));
+        let none = run(Some(&mut |_: &[BilateralRow], _: &mut DVector<f64>| false));
         assert_eq!(none, (plain_out, plain));
     }
 }

@@ -586,7 +586,7 @@ impl Simulation {
         // a projection that may need Gauss–Newton starts from the rows' gradients
         let mut chord = chord
             .filter(|_| pool.is_empty())
-            .map(|e| |c: &[f64], dnu: &mut DVector<f64>| e.chord_step(c, dnu));
+            .map(|e| |rows: &[BilateralRow], dnu: &mut DVector<f64>| e.chord_step(rows, dnu));
         if model.joints.is_empty() && pool.is_empty() {
             // nothing to project: what `project` reports for no rows
             let outcome = ProjectionOutcome {
