@@ -4,7 +4,10 @@
 //! penetrating contacts are then projected onto their manifolds.
 
 use super::projection::ContactRows;
-use super::simulation::{hand_back_points, spare_points, Closing, Outcome, Simulation, StepReport};
+use super::simulation::{
+    hand_back_all_points, hand_back_points, spare_all_points, Closing, Outcome, Simulation,
+    StepReport,
+};
 use crate::math::kept;
 use crate::mechanics::ContactPoint;
 
@@ -167,7 +170,7 @@ impl Simulation {
                 let points = pool_points.as_ref()?;
                 pool.binary_search(&k).ok().map(|j| &points[j])
             };
-            let mut after = spare_points();
+            let mut after = spare_all_points();
             self.model
                 .evaluate_selected_knowing(&poses, &self.candidates, known, &mut after);
             if let Some(points) = pool_points {
@@ -181,7 +184,7 @@ impl Simulation {
             if new.is_empty() {
                 settled = true;
                 if let Some((.., passed)) = last.replace((active, vs, poses, after)) {
-                    hand_back_points(passed);
+                    hand_back_all_points(passed);
                 }
                 break;
             }
@@ -194,7 +197,7 @@ impl Simulation {
                 knocked: pass > 1 && self.points[i].normal_velocity(self.state.v.as_slice()) >= 0.0,
             }));
             if let Some((.., passed)) = last.replace((active.clone(), vs, poses, after)) {
-                hand_back_points(passed);
+                hand_back_all_points(passed);
             }
             active.extend(new.iter().copied());
             active.sort_unstable();

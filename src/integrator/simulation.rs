@@ -143,17 +143,31 @@ struct ProjectionLists {
 
 thread_local! {
     static SPARE_POINTS: kept::Spares<ContactPoint> = const { RefCell::new(Vec::new()) };
+    static SPARE_ALL_POINTS: kept::Spares<ContactPoint> = const { RefCell::new(Vec::new()) };
     static SPARE_CANDIDATES: kept::Spares<Candidate> = const { RefCell::new(Vec::new()) };
 }
 
-/// An empty list of contact points, in the storage of one handed back.
-pub(super) fn spare_points() -> Vec<ContactPoint> {
-    kept::spare(&SPARE_POINTS)
+/// A list of a few contact points handed back, with its stale entries, for
+/// `Model::evaluate_selected` to write `n` points over: it builds them in place where
+/// there are entries to write over.
+pub(super) fn spare_points(n: usize) -> Vec<ContactPoint> {
+    kept::spare_as_left(&SPARE_POINTS, n)
 }
 
-/// Keeps the storage of a list of contact points that is done with.
+/// Keeps the storage of a list of a few contact points that is done with.
 pub(super) fn hand_back_points(points: Vec<ContactPoint>) {
     kept::hand_back(&SPARE_POINTS, points)
+}
+
+/// `spare_points` for a list of every candidate's point (kept apart, so that a list of a
+/// few does not take one and leave it short).
+pub(super) fn spare_all_points() -> Vec<ContactPoint> {
+    kept::spare_as_left(&SPARE_ALL_POINTS, usize::MAX)
+}
+
+/// `hand_back_points` for a list of every candidate's point.
+pub(super) fn hand_back_all_points(points: Vec<ContactPoint>) {
+    kept::hand_back(&SPARE_ALL_POINTS, points)
 }
 
 thread_local! {
@@ -202,6 +216,7 @@ pub(super) fn poison_lists() {
         f64::NAN,
     );
     SPARE_POINTS.set(vec![vec![stale; 40]; 3]);
+    SPARE_ALL_POINTS.set(vec![vec![stale; 40], vec![stale; 3]]);
     SPARE_CANDIDATES.set(vec![
         vec![
             Candidate::Limit {
@@ -329,7 +344,7 @@ impl Simulation {
         joints: Option<JointViolation>,
     ) {
         match points {
-            Some(points) => hand_back_points(std::mem::replace(&mut self.points, points)),
+            Some(points) => hand_back_all_points(std::mem::replace(&mut self.points, points)),
             None => {
                 self.model
                     .evaluate_selected(&self.state.poses, &self.candidates, &mut self.points)
@@ -542,7 +557,7 @@ impl Simulation {
         let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
             let mut candidates = kept::spare(&SPARE_CANDIDATES);
             candidates.extend(which.iter().map(|&k| self.candidates[active[k]]));
-            let mut out = spare_points();
+            let mut out = spare_points(which.len());
             self.model.evaluate_selected(poses, &candidates, &mut out);
             kept::hand_back(&SPARE_CANDIDATES, candidates);
             for (c, &k) in out.iter_mut().zip(which) {
@@ -605,7 +620,7 @@ impl Simulation {
         candidates.extend(pool.iter().map(|&i| self.candidates[i]));
         let candidates = &*candidates;
         // the poses last evaluated and the pool's points there
-        let last = RefCell::new((std::mem::take(at), spare_points()));
+        let last = RefCell::new((std::mem::take(at), spare_points(pool.len())));
         let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
             let (at, pts) = &mut *last;

@@ -24,6 +24,17 @@ pub fn spare<T>(spares: &'static LocalKey<Spares<T>>) -> Vec<T> {
     v
 }
 
+/// A vector handed back, with the stale entries it held, for a caller that writes over
+/// `n` of them: the shortest that holds as many, else the longest (an empty one where
+/// none was handed back).
+pub fn spare_as_left<T>(spares: &'static LocalKey<Spares<T>>, n: usize) -> Vec<T> {
+    spares.with_borrow_mut(|kept| {
+        let fits = |v: &Vec<T>| (v.len() < n, v.len().abs_diff(n));
+        let best = (0..kept.len()).min_by_key(|&i| fits(&kept[i]));
+        best.map(|i| kept.swap_remove(i)).unwrap_or_default()
+    })
+}
+
 /// Keeps the storage of `v` for a later `spare`.
 pub fn hand_back<T>(spares: &'static LocalKey<Spares<T>>, v: Vec<T>) {
     // a list that never held anything has no storage to keep
@@ -116,5 +127,26 @@ mod tests {
         assert_eq!((again.as_ptr(), again.len()), (at, 0));
         assert!(again.capacity() >= 3);
         assert_eq!(spare(&LISTS).capacity(), 0, "the one kept is out");
+    }
+
+    thread_local! {
+        static STALE: Spares<u32> = const { RefCell::new(Vec::new()) };
+    }
+
+    /// A list to write n entries over is the shortest kept that holds n, else the
+    /// longest; it keeps its entries.
+    #[test]
+    fn spares_to_write_over_are_the_shortest_that_fit() {
+        for v in [vec![1; 2], vec![2; 9], vec![3; 5]] {
+            hand_back(&STALE, v);
+        }
+        assert_eq!(spare_as_left(&STALE, 4), vec![3; 5]);
+        assert_eq!(
+            spare_as_left(&STALE, 20),
+            vec![2; 9],
+            "none fits: the longest"
+        );
+        assert_eq!(spare_as_left(&STALE, 0), vec![1; 2]);
+        assert!(spare_as_left(&STALE, 0).is_empty(), "none kept");
     }
 }

@@ -205,6 +205,8 @@ impl Model {
     /// The candidates `selected` (in the order of `contact_candidates`) evaluated at
     /// `poses` into `out`, each clearance joint placed once for its run of points: all of
     /// them at a step's start and end, the projection's few active ones at its trial poses.
+    /// `out` may hold stale entries: the points are written over them (a clearance joint's
+    /// are built in place there), and `out` ends with one entry per candidate.
     pub fn evaluate_selected(
         &self,
         poses: &[Pose],
@@ -224,18 +226,16 @@ impl Model {
         known: impl Fn(usize) -> Option<&'a ContactPoint>,
         out: &mut Vec<ContactPoint>,
     ) {
-        out.clear();
-        out.reserve(selected.len());
         let mut rest = selected;
         while let Some((&first, tail)) = rest.split_first() {
             let k = selected.len() - rest.len();
             rest = tail;
             match first {
-                Candidate::Pair { pair, point } => out.push(match known(k) {
+                Candidate::Pair { pair, point } => put(out, k, || match known(k) {
                     Some(p) => *p,
                     None => self.contacts[pair].evaluate(point, poses),
                 }),
-                Candidate::Limit { joint, upper } => out.push(match known(k) {
+                Candidate::Limit { joint, upper } => put(out, k, || match known(k) {
                     Some(p) => *p,
                     None => self.joints[joint].limit_point(upper, poses),
                 }),
@@ -247,11 +247,19 @@ impl Model {
                     };
                     let run = rest.iter().map_while(same).count();
                     let points = std::iter::once(point).chain(rest.iter().map_while(same));
-                    self.clearance_joints[joint].evaluate_points(poses, points, out);
+                    let joint = &self.clearance_joints[joint];
+                    let placed = joint.place(poses);
+                    for (j, point) in points.enumerate() {
+                        match out.get_mut(k + j) {
+                            Some(slot) => joint.write_point(point, &placed, slot),
+                            None => out.push(joint.point(point, &placed)),
+                        }
+                    }
                     rest = &rest[run..];
                 }
             }
         }
+        out.truncate(selected.len());
     }
 
     /// A readable name of the candidate for outputs: `floor`, `box[3]`, `J1.upper`.
@@ -285,5 +293,66 @@ impl Model {
                 }
             }
         }
+    }
+}
+
+/// Sets entry `k` of `out` (which holds at least `k` entries) to the point `make` gives:
+/// over the stale entry there, or pushed.
+fn put(out: &mut Vec<ContactPoint>, k: usize, make: impl FnOnce() -> ContactPoint) {
+    match out.get_mut(k) {
+        Some(slot) => *slot = make(),
+        None => out.push(make()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::mechanics::ContactPoint;
+    use crate::scene::Scene;
+
+    /// Points written over the stale entries of a list, shorter or longer than the
+    /// selection, are those evaluated into an empty one, bit for bit: on the circuit
+    /// breaker (contact pairs, joint stops and eight clearance joints), its stale entries
+    /// NaN or other candidates' points (guards on the linearised gap, rings with a lateral
+    /// curvature, where the selection has flange points without either).
+    #[test]
+    fn points_written_over_stale_entries_are_those_of_an_empty_list() {
+        let mut sim = Scene::bundled_simulation("c60");
+        sim.run_until(0.01, |_, _| {}).unwrap();
+        let (model, poses) = (&sim.model, &sim.state.poses);
+        let all = sim.contact_ids().to_vec();
+        let bits = |points: &[ContactPoint]| format!("{points:?}");
+        let mut reversed = Vec::new();
+        model.evaluate_selected(poses, &all, &mut reversed);
+        reversed.reverse();
+        let nan = {
+            let mut p = reversed[0];
+            p.geometry.gap = f64::NAN;
+            p.frame.fill(f64::NAN);
+            p.mu = f64::NAN;
+            p
+        };
+        let selections = [
+            all.clone(),
+            all.iter().copied().step_by(3).collect(),
+            all[all.len() / 2..].to_vec(),
+        ];
+        for selected in &selections {
+            let mut fresh = Vec::new();
+            model.evaluate_selected(poses, selected, &mut fresh);
+            assert_eq!(fresh.len(), selected.len());
+            for stale in [
+                vec![nan; selected.len() + 5],
+                vec![nan; selected.len() / 2],
+                reversed.clone(),
+            ] {
+                let mut out = stale;
+                model.evaluate_selected(poses, selected, &mut out);
+                assert_eq!(bits(&out), bits(&fresh), "{} selected", selected.len());
+            }
+        }
+        let kinds = |p: &ContactPoint| (p.gap_law, p.lateral.is_some());
+        let present = |k| reversed.iter().any(|p| kinds(p) == k);
+        assert!(present((true, false)) && present((false, true)) && present((false, false)));
     }
 }

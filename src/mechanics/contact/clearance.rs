@@ -18,7 +18,7 @@ use crate::math::any_orthogonal;
 use crate::math::blocks::vector6_at;
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::{point_velocity, pose_of, Pose};
-use nalgebra::Vector3;
+use nalgebra::{RowVector6, Vector3};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClearanceJoint {
@@ -103,7 +103,7 @@ impl ClearanceJoint {
 
     /// The joint at `poses`: its frames and each ring with its closest-point angle (found
     /// once and shared by the ring's point and its guards).
-    fn place(&self, poses: &[Pose]) -> Placed {
+    pub fn place(&self, poses: &[Pose]) -> Placed {
         let f = self.frames(poses);
         let ring = |side: f64| {
             let centre = f.c_b + f.a_b * (side * 0.5 * self.bore_length);
@@ -123,19 +123,21 @@ impl ClearanceJoint {
         self.point(k, &self.place(poses))
     }
 
-    /// The candidate points `points` at `poses`, appended to `out` in that order (the
-    /// joint is placed once for all of them).
-    pub fn evaluate_points(
-        &self,
-        poses: &[Pose],
-        points: impl Iterator<Item = usize>,
-        out: &mut Vec<ContactPoint>,
-    ) {
-        let placed = self.place(poses);
-        out.extend(points.map(|k| self.point(k, &placed)));
+    /// Candidate `k` of the joint `placed` (as `evaluate` numbers them).
+    pub fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
+        // any point, to write over
+        let zero = RowVector6::zeros();
+        let mut point =
+            ContactPoint::with_normal_rows(ContactGeometry::default(), None, None, zero, zero, 0.0);
+        self.write_point(k, placed, &mut point);
+        point
     }
 
-    fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
+    /// `point` written over `slot`, where it is built: a point of 520 bytes built aside and
+    /// copied into a list is read back while its stores are still in flight. (Inlined, it
+    /// was built aside again.)
+    #[inline(never)]
+    pub fn write_point(&self, k: usize, placed: &Placed, slot: &mut ContactPoint) {
         let Frames {
             pb,
             pj,
@@ -161,7 +163,8 @@ impl ClearanceJoint {
             let t2 = g.normal.cross(&a_j);
             let guard = offset != 0;
             // a guard is open when it acts: frictionless, on the linearised gap
-            let mut cp = ContactPoint::new(
+            let lateral = (!guard).then(|| self.lateral(&g, &a_j, &pb, &pj));
+            *slot = ContactPoint::new(
                 g,
                 self.bore_body,
                 &pb,
@@ -171,11 +174,8 @@ impl ClearanceJoint {
                 if guard { 0.0 } else { self.mu },
                 if guard { 0.0 } else { self.e },
             );
-            cp.gap_law = guard;
-            if !guard {
-                cp.lateral = Some(self.lateral(&g, &a_j, &pb, &pj));
-            }
-            cp
+            slot.gap_law = guard;
+            slot.lateral = lateral;
         } else {
             let j = k - 2;
             let (side, idx) = if j < self.rim_points {
@@ -201,7 +201,7 @@ impl ClearanceJoint {
                 point1: x,
                 point2: x - nu * gap,
             };
-            ContactPoint::new(
+            *slot = ContactPoint::new(
                 g,
                 self.journal_body,
                 &pj,
@@ -210,7 +210,7 @@ impl ClearanceJoint {
                 None,
                 self.mu,
                 self.e,
-            )
+            );
         }
     }
 
@@ -314,7 +314,7 @@ struct Frames {
 
 /// A clearance joint placed at given poses: its frames, and each ring (−, +) with the
 /// cosine and sine of its closest-point angle.
-struct Placed {
+pub struct Placed {
     frames: Frames,
     rings: [(Ring, (f64, f64)); 2],
 }

@@ -119,7 +119,7 @@ impl Primitive {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactGeometry {
     /// Signed distance, > 0 when separated.
     pub gap: f64,
