@@ -312,7 +312,7 @@ mod tests {
 
     /// Points written over the stale entries of a list, shorter or longer than the
     /// selection, are those evaluated into an empty one, bit for bit: on the circuit
-    /// breaker (contact pairs, joint stops and eight clearance joints), its stale entries
+    /// breaker (contact pairs, joint stops and seven clearance joints), its stale entries
     /// NaN or other candidates' points (guards on the linearised gap, rings with a lateral
     /// curvature, where the selection has flange points without either).
     #[test]
