@@ -353,8 +353,7 @@ pub fn velocity_step(
             advance_poses_into(mid, poses, v0, &v, 0.5 * h, 0.5);
         }
         if let (Some(c), 0) = (turning, iterations - 1) {
-            let at_mid = (c.at)(mid, c.turning);
-            let at_end = (c.at)(poses1, c.turning);
+            let (mut at_mid, mut at_end) = ((c.at)(mid, c.turning), (c.at)(poses1, c.turning));
             for (k, &a) in c.turning.iter().enumerate() {
                 // a normal that does not turn over the step keeps the start rows (and the
                 // Delassus matrix symmetric, which the solver's sweeps need to converge
@@ -369,10 +368,12 @@ pub fn velocity_step(
                 }
                 // the impulse and the velocity on the tangents of the start, carried over
                 let frame = &active[a].point.frame;
+                at_mid[k].carry_tangents_of(frame);
+                at_end[k].carry_tangents_of(frame);
                 problem.turn(
                     a,
-                    contact_blocks(&at_mid[k].with_tangents_of(frame), mask),
-                    contact_blocks(&at_end[k].with_tangents_of(frame), mask),
+                    contact_blocks(&at_mid[k], mask),
+                    contact_blocks(&at_end[k], mask),
                 );
             }
             hand_back_points(at_mid);

@@ -449,20 +449,18 @@ impl ContactPoint {
         self.geometry.normal
     }
 
-    /// The same point with its tangents carried over from `frame`, the frame of this contact
-    /// at nearby poses (rows n, t1, t2): t1 is that frame's t1 less its part along this
-    /// normal, t2 = n × t1. A tangent basis chosen from the normal alone jumps where the
+    /// Carries the point's tangents over from `frame`, the frame of this contact at nearby
+    /// poses (rows n, t1, t2): t1 is that frame's t1 less its part along this normal,
+    /// t2 = n × t1. A tangent basis chosen from the normal alone jumps where the
     /// normal crosses the basis' seam (for `tangent_basis`, n_z = 0, which is every normal
     /// of a mechanism in the x–y plane), and an impulse taken along one basis and a
     /// velocity measured along the other turn friction around.
-    pub fn with_tangents_of(mut self, frame: &Matrix3<f64>) -> ContactPoint {
+    pub fn carry_tangents_of(&mut self, frame: &Matrix3<f64>) {
         let n = self.geometry.normal;
         let t1 = frame.row(1).transpose();
         let t1 = (t1 - n * n.dot(&t1)).normalize();
         let t2 = n.cross(&t1);
-        let carried = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
-        self.frame = carried;
-        self
+        self.frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
     }
 }
 
@@ -559,7 +557,8 @@ mod tests {
             (own.frame.row(1) - start.frame.row(1)).norm() > 1.9,
             "no seam crossed"
         );
-        let carried = own.with_tangents_of(&start.frame);
+        let mut carried = own;
+        carried.carry_tangents_of(&start.frame);
         assert!((carried.frame.row(1) - start.frame.row(1)).norm() < 1.5 * turn);
         assert!((carried.frame.row(2) - start.frame.row(2)).norm() < 1.5 * turn);
         assert_relative_eq!(
