@@ -226,6 +226,8 @@ impl Model {
         known: impl Fn(usize) -> Option<&'a ContactPoint>,
         out: &mut Vec<ContactPoint>,
     ) {
+        // one growth at most, where `out` holds fewer entries than there are candidates
+        out.reserve(selected.len().saturating_sub(out.len()));
         let mut rest = selected;
         while let Some((&first, tail)) = rest.split_first() {
             let k = selected.len() - rest.len();
@@ -247,12 +249,12 @@ impl Model {
                     };
                     let run = rest.iter().map_while(same).count();
                     let points = std::iter::once(point).chain(rest.iter().map_while(same));
-                    let joint = &self.clearance_joints[joint];
-                    let placed = joint.place(poses);
+                    let clearance = &self.clearance_joints[joint];
+                    let placed = clearance.place(poses);
                     for (j, point) in points.enumerate() {
                         match out.get_mut(k + j) {
-                            Some(slot) => joint.write_point(point, &placed, slot),
-                            None => out.push(joint.point(point, &placed)),
+                            Some(slot) => clearance.write_point(point, &placed, slot),
+                            None => out.push(clearance.point(point, &placed)),
                         }
                     }
                     rest = &rest[run..];
