@@ -233,10 +233,11 @@ impl Model {
             let k = selected.len() - rest.len();
             rest = tail;
             match first {
-                Candidate::Pair { pair, point } => put(out, k, || match known(k) {
-                    Some(p) => *p,
-                    None => self.contacts[pair].evaluate(point, poses),
-                }),
+                Candidate::Pair { pair, point } => match (known(k), out.get_mut(k)) {
+                    (Some(p), _) => put(out, k, || *p),
+                    (None, Some(slot)) => self.contacts[pair].write(point, poses, slot),
+                    (None, None) => out.push(self.contacts[pair].evaluate(point, poses)),
+                },
                 Candidate::Limit { joint, upper } => put(out, k, || match known(k) {
                     Some(p) => *p,
                     None => self.joints[joint].limit_point(upper, poses),

@@ -18,7 +18,7 @@ use crate::math::any_orthogonal;
 use crate::math::blocks::vector6_at;
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::{point_velocity, pose_of, Pose};
-use nalgebra::{RowVector6, Vector3};
+use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClearanceJoint {
@@ -125,10 +125,7 @@ impl ClearanceJoint {
 
     /// Candidate `k` of the joint `placed` (as `evaluate` numbers them).
     pub fn point(&self, k: usize, placed: &Placed) -> ContactPoint {
-        // any point, to write over
-        let zero = RowVector6::zeros();
-        let mut point =
-            ContactPoint::with_normal_rows(ContactGeometry::default(), None, None, zero, zero, 0.0);
+        let mut point = ContactPoint::placeholder();
         self.write_point(k, placed, &mut point);
         point
     }

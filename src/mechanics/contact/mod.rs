@@ -265,6 +265,16 @@ impl ContactPair {
 
     /// Geometry and Jacobian of candidate `k` at the given body poses.
     pub fn evaluate(&self, k: usize, poses: &[Pose]) -> ContactPoint {
+        let mut point = ContactPoint::placeholder();
+        self.write(k, poses, &mut point);
+        point
+    }
+
+    /// `evaluate` written over `slot`, where it is built: a point of 520 bytes built aside
+    /// and copied into a list is read back while its stores are still in flight. (Inlined,
+    /// it was built aside again.)
+    #[inline(never)]
+    pub fn write(&self, k: usize, poses: &[Pose], slot: &mut ContactPoint) {
         let (p1, p2) = (pose_of(self.body1, poses), pose_of(self.body2, poses));
         let (f1, f2) = (BodyFrame::new(p1), BodyFrame::new(p2));
         // a pin on a profile carries the lateral curvature of a concave arc
@@ -275,20 +285,20 @@ impl ContactPair {
         };
         if let Some((pin, profile)) = pin_on_profile {
             let c = profile.contact(&p2, &profile::Pin::of(pin, &p1), k);
-            let mut point = ContactPoint::new(
+            *slot = ContactPoint::new(
                 c.geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
             );
-            point.lateral = c.lateral.map(|(dir, at, kappa)| Lateral {
+            slot.lateral = c.lateral.map(|(dir, at, kappa)| Lateral {
                 g1: point_row(&dir, &f1, &at),
                 g2: -point_row(&dir, &f2, &at),
                 kappa,
             });
-            return point;
+            return;
         }
         let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
-        ContactPoint::new(
+        *slot = ContactPoint::new(
             geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
-        )
+        );
     }
 }
 
@@ -325,6 +335,12 @@ impl ContactPoint {
             gap_law: false,
             lateral: None,
         }
+    }
+
+    /// Any point, to be written over.
+    pub fn placeholder() -> ContactPoint {
+        let zero = RowVector6::zeros();
+        ContactPoint::with_normal_rows(ContactGeometry::default(), None, None, zero, zero, 0.0)
     }
 
     /// A frictionless point whose normal rows are given (`g1`, `g2` for bodies 1 and 2);
