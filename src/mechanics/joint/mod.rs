@@ -97,6 +97,18 @@ pub struct BilateralRow {
     pub unit: RowUnit,
 }
 
+/// A blank row pushed onto `out`, to be filled where it lies.
+fn blank(out: &mut Vec<BilateralRow>) -> &mut BilateralRow {
+    out.push(BilateralRow {
+        a: None,
+        b: None,
+        value: 0.0,
+        rate: 0.0,
+        unit: RowUnit::Length,
+    });
+    out.last_mut().expect("a row was just pushed")
+}
+
 impl Joint {
     /// Builds a joint from the anchor and axis given in world coordinates at the assembled
     /// configuration `poses`.
@@ -299,26 +311,18 @@ impl Joint {
         };
         let on_a = frame(self.a, &pa, &xa);
         let on_b = frame(self.b, &pb, &xb);
-        let row = |a: Option<(usize, RowVector6<f64>)>,
-                   b: Option<(usize, RowVector6<f64>)>,
-                   value: f64,
-                   unit: RowUnit| BilateralRow {
-            a,
-            b,
-            value,
-            rate: 0.0,
-            unit,
-        };
+        // Each row is pushed blank and filled where it lies: a row of 152 bytes built aside
+        // and copied in is read back while its stores are still in flight.
         // e·(x_b − x_a) for a world direction e carried by a (fixed = false) or the ground
-        let translation = |e: Vector3<f64>, carried_by_a: bool| {
-            let gb = on_b.map(|(i, _, lever_b)| {
+        let translation = |e: Vector3<f64>, carried_by_a: bool, row: &mut BilateralRow| {
+            row.b = on_b.map(|(i, _, lever_b)| {
                 let mut gb = RowVector6::zeros();
                 gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
                 gb.fixed_columns_mut::<3>(3)
                     .copy_from(&(-e.transpose() * lever_b));
                 (i, gb)
             });
-            let ga = on_a.map(|(i, ra, lever_a)| {
+            row.a = on_a.map(|(i, ra, lever_a)| {
                 let mut ga = RowVector6::zeros();
                 ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
                 let mut rot = e.transpose() * lever_a;
@@ -328,24 +332,26 @@ impl Joint {
                 ga.fixed_columns_mut::<3>(3).copy_from(&rot);
                 (i, ga)
             });
-            row(ga, gb, e.dot(&d), RowUnit::Length)
+            row.value = e.dot(&d);
+            row.unit = RowUnit::Length;
         };
         // x·y with x = R_a X (on a), y = R_b Y (on b): ḣ = (ω_b − ω_a)·(y × x)
-        let angular = |x: Vector3<f64>, y: Vector3<f64>| {
+        let angular = |x: Vector3<f64>, y: Vector3<f64>, row: &mut BilateralRow| {
             let c = y.cross(&x);
-            let gb = on_b.map(|(i, rb, _)| {
+            row.b = on_b.map(|(i, rb, _)| {
                 let mut gb = RowVector6::zeros();
                 gb.fixed_columns_mut::<3>(3)
                     .copy_from(&(c.transpose() * rb));
                 (i, gb)
             });
-            let ga = on_a.map(|(i, ra, _)| {
+            row.a = on_a.map(|(i, ra, _)| {
                 let mut ga = RowVector6::zeros();
                 ga.fixed_columns_mut::<3>(3)
                     .copy_from(&(-c.transpose() * ra));
                 (i, ga)
             });
-            row(ga, gb, x.dot(&y), RowUnit::Angle)
+            row.value = x.dot(&y);
+            row.unit = RowUnit::Angle;
         };
         // a's two perpendiculars in the world, turned once, for every kind but the
         // spherical joint, which does not use them
@@ -354,46 +360,47 @@ impl Joint {
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
-                    out.push(translation(e, false));
+                    translation(e, false, blank(out));
                 }
             }
             JointKind::Prismatic => {
                 let (p1, p2) = perp.expect("a prismatic joint's perpendiculars");
-                out.push(translation(p1, true));
-                out.push(translation(p2, true));
+                translation(p1, true, blank(out));
+                translation(p2, true, blank(out));
             }
         }
         if let Some((p1, p2)) = perp {
             let axis_b = pb.dir(&self.axis_b);
-            out.push(angular(p1, axis_b));
-            out.push(angular(p2, axis_b));
+            angular(p1, axis_b, blank(out));
+            angular(p2, axis_b, blank(out));
             if matches!(self.kind, JointKind::Fixed | JointKind::Prismatic) {
-                out.push(angular(p2, pb.dir(&self.ref_b)));
+                angular(p2, pb.dir(&self.ref_b), blank(out));
             }
         }
         if let Some(Drive::Position(profile)) = &self.drive {
             let target = profile.value(t);
             let rate = profile.rate(t);
+            let r = blank(out);
             match self.kind {
                 JointKind::Prismatic => {
-                    let mut r = translation(pa.dir(&self.axis_a), true);
+                    translation(pa.dir(&self.axis_a), true, r);
                     r.value -= target;
-                    r.rate = rate;
-                    out.push(r);
                 }
                 _ => {
+                    match gradients {
+                        true => *r = self.coordinate_row(poses),
+                        false => {
+                            r.value = self.coordinate(poses);
+                            r.unit = RowUnit::Angle;
+                        }
+                    }
                     // angle error wrapped to (−π, π]
-                    let mut r = match gradients {
-                        true => self.coordinate_row(poses),
-                        false => row(None, None, self.coordinate(poses), RowUnit::Angle),
-                    };
                     let err = r.value - target;
                     r.value = (err + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
                         - std::f64::consts::PI;
-                    r.rate = rate;
-                    out.push(r);
                 }
             }
+            r.rate = rate;
         }
     }
 
