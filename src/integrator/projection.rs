@@ -95,6 +95,36 @@ pub fn mass_distance(model: &Model, a: &[Pose], b: &[Pose]) -> f64 {
     twice_kinetic.sqrt()
 }
 
+/// Whether `poses` lie no farther from `trial` than `PROJECTION_REACH` times the step's
+/// own motion (from `start` to `trial`) plus `slack`, in the mass metric (`mass_distance`).
+/// Bounds that take no arctangent decide it first: the translations alone bound the step's
+/// motion from below, and a rotation's term is at most the trace of the inertia times
+/// (π |v|)², v the vector part of its quaternion (its angle 2 atan2(|v|, |w|) is at most
+/// π |v|). Only where they leave it open (within 1 %, for the rounding) are the distances
+/// computed in full; the answer is that of the full test either way.
+pub fn within_reach(
+    model: &Model,
+    trial: &[Pose],
+    poses: &[Pose],
+    start: &[Pose],
+    slack: f64,
+) -> bool {
+    let (mut farthest, mut nearest) = (0.0, 0.0);
+    for (body, ((t, p), s)) in model.bodies.iter().zip(trial.iter().zip(poses).zip(start)) {
+        let free = f64::from(u8::from(body.motion == Motion::Free));
+        let turn = std::f64::consts::PI * (t.p.inverse() * p.p).imag().norm();
+        farthest +=
+            free * body.mass * (p.x - t.x).norm_squared() + body.inertia.trace() * turn * turn;
+        nearest += free * body.mass * (s.x - t.x).norm_squared();
+    }
+    if 1.01 * farthest.sqrt() <= PROJECTION_REACH * nearest.sqrt() + slack {
+        return true;
+    }
+    // (not farther, so that a NaN distance, which no bound decides, is within reach)
+    !(mass_distance(model, trial, poses)
+        > PROJECTION_REACH * mass_distance(model, trial, start) + slack)
+}
+
 /// `mass_distance` of moving every free body by `length`.
 pub fn mass_distance_of_length(model: &Model, length: f64) -> f64 {
     let mass: f64 = model
@@ -649,6 +679,59 @@ mod tests {
     use super::*;
     use crate::scene::Scene;
     use nalgebra::{UnitQuaternion, Vector3};
+
+    /// `within_reach` answers as the full test of `mass_distance` does, on the four-bar's
+    /// three bars moved from a start to a trial (by translations, turns or both) and on to
+    /// poses at 0.5 to 1.5 times the reach (by translations, turns of up to 2.5 rad, or
+    /// both): where its bounds decide, and where they leave it to the full distances. A
+    /// bound on a turn's term without its factor π, or a lower bound on the step that
+    /// counted its turns, answers some of these wrongly.
+    #[test]
+    fn within_reach_is_the_test_of_the_mass_distance() {
+        let sim = Scene::bundled_simulation("four-bar");
+        let (model, start) = (&sim.model, &sim.state.poses);
+        // each bar moved along its own direction of translation and turn, of the given sizes
+        let moved = |poses: &[Pose], k: u64, length: f64, angle: f64| -> Vec<Pose> {
+            poses
+                .iter()
+                .enumerate()
+                .map(|(b, q)| {
+                    let phase = (k * 7 + b as u64 * 3) as f64;
+                    let along = Vector3::new(phase.sin(), (1.3 * phase).cos(), 0.5).normalize();
+                    let about = Vector3::new((1.1 * phase).cos(), 0.4, (1.7 * phase).sin());
+                    let mut delta = Vector6::zeros();
+                    delta.fixed_rows_mut::<3>(0).copy_from(&(along * length));
+                    delta
+                        .fixed_rows_mut::<3>(3)
+                        .copy_from(&(about.normalize() * angle));
+                    q.advanced(&delta)
+                })
+                .collect()
+        };
+        let slack = mass_distance_of_length(model, 1e-10);
+        let (mut agreed, mut inside) = (0u64, 0u64);
+        let cases = 600u64;
+        for k in 0..cases {
+            let (length, angle) = [(1e-3, 0.0), (0.0, 1e-2), (1e-3, 1e-2)][(k % 3) as usize];
+            let trial = moved(start, k, length, angle);
+            let reach = PROJECTION_REACH * mass_distance(model, &trial, start);
+            // poses at `ratio` times the reach, their move scaled to it once
+            let ratio = 0.5 + (k as f64 * 0.618_034).fract();
+            let (l, a) = [(1.0, 0.0), (0.0, 1.0), (0.5, 5.0)][(k / 3 % 3) as usize];
+            let unit = mass_distance(model, &trial, &moved(&trial, k + 1000, l * 1e-3, a * 1e-3));
+            let size = (ratio * reach / unit * 1e-3).min(2.5 / a.max(1e-9));
+            let poses = moved(&trial, k + 1000, l * size, a * size);
+            let full = mass_distance(model, &trial, &poses)
+                <= PROJECTION_REACH * mass_distance(model, &trial, start) + slack;
+            agreed += u64::from(within_reach(model, &trial, &poses, start, slack) == full);
+            inside += u64::from(full);
+        }
+        assert_eq!(agreed, cases);
+        assert!(
+            inside > 150 && cases - inside > 150,
+            "{inside} of {cases} within reach"
+        );
+    }
 
     /// The driven four-bar's poses knocked off its assembly by millimetres and
     /// hundredths of a radian.

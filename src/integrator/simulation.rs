@@ -12,8 +12,8 @@ use super::moreau_jean::{
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
 use super::projection::{
-    inverse_mass, mass_distance, mass_distance_of_length, project, ChordStep, ContactRows,
-    ContactRowsOf, JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH, PROJECTION_REACH,
+    inverse_mass, mass_distance_of_length, project, within_reach, ChordStep, ContactRows,
+    ContactRowsOf, JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH,
 };
 use super::schedule::Schedule;
 use crate::math::kept;
@@ -666,11 +666,8 @@ impl Simulation {
             let tolerance = self.params.projection_tolerance;
             let admissible = (0..self.points.len())
                 .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);
-            if admissible
-                && mass_distance(model, trial, poses)
-                    > PROJECTION_REACH * mass_distance(model, trial, &self.state.poses)
-                        + mass_distance_of_length(model, tolerance)
-            {
+            let slack = mass_distance_of_length(model, tolerance);
+            if admissible && !within_reach(model, trial, poses, &self.state.poses, slack) {
                 outcome.converged = false;
             }
         }
