@@ -299,7 +299,14 @@ impl Joint {
     fn rows_of(&self, t: f64, poses: &[Pose], gradients: bool, out: &mut Vec<BilateralRow>) {
         let pa = pose_of(self.a, poses);
         let pb = pose_of(self.b, poses);
-        let xa = pa.point(&self.anchor_a);
+        // On the ground, whose frame is the world's, a point and a direction are their
+        // local coordinates: turning them by the identity gives them back (a zero
+        // coordinate perhaps with the other sign), but costs a quaternion product each.
+        // Adding the zero origin gives a point's zeros the sign `point` leaves them.
+        let xa = match self.a {
+            Some(_) => pa.point(&self.anchor_a),
+            None => Vector3::zeros() + self.anchor_a,
+        };
         let xb = pb.point(&self.anchor_b);
         let d = xb - xa;
         // each body's rotation and the lever of its anchor; the ground has no blocks
@@ -355,8 +362,10 @@ impl Joint {
         };
         // a's two perpendiculars in the world, turned once, for every kind but the
         // spherical joint, which does not use them
-        let perp = (self.kind != JointKind::Spherical)
-            .then(|| (pa.dir(&self.perp_a[0]), pa.dir(&self.perp_a[1])));
+        let perp = (self.kind != JointKind::Spherical).then(|| match self.a {
+            Some(_) => (pa.dir(&self.perp_a[0]), pa.dir(&self.perp_a[1])),
+            None => (self.perp_a[0], self.perp_a[1]),
+        });
         match self.kind {
             JointKind::Spherical | JointKind::Revolute | JointKind::Fixed => {
                 for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
@@ -561,6 +570,45 @@ mod tests {
                 }
                 assert!(rows.iter().any(|r| r.value != 0.0 && r.rate != 0.0));
             }
+        }
+    }
+
+    /// A joint on the ground has the rows of the same joint on a body held at the
+    /// identity: values, rates and body b's gradients, for every kind with a drive (the
+    /// ground's points and directions are taken as they are, not turned).
+    #[test]
+    fn rows_on_the_ground_are_those_on_a_body_at_the_identity() {
+        let poses = vec![Pose::identity(), off_assembly()[1]];
+        let drive = Drive::Position(ScalarProfile::Rate {
+            start: 0.1,
+            rate: 2.0,
+        });
+        for kind in [
+            JointKind::Revolute,
+            JointKind::Prismatic,
+            JointKind::Spherical,
+            JointKind::Fixed,
+        ] {
+            let on_body = test_joint(kind, &off_assembly(), Some(drive.clone()));
+            let mut on_ground = on_body.clone();
+            on_ground.a = None;
+            let (mut rows, mut ground_rows) = (Vec::new(), Vec::new());
+            on_body.rows(0.3, &poses, &mut rows);
+            on_ground.rows(0.3, &poses, &mut ground_rows);
+            assert_eq!(rows.len(), ground_rows.len(), "{kind:?}");
+            for (r, g) in rows.iter().zip(&ground_rows) {
+                assert_eq!(
+                    (r.value, r.rate, r.unit),
+                    (g.value, g.rate, g.unit),
+                    "{kind:?}"
+                );
+                assert_eq!(r.b, g.b, "{kind:?}");
+                assert!(r.a.is_some() && g.a.is_none(), "{kind:?}");
+            }
+            assert!(
+                rows.iter().filter(|r| r.value.abs() > 1e-3).count() >= 2,
+                "{kind:?}"
+            );
         }
     }
 
