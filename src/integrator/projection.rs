@@ -120,9 +120,10 @@ pub fn within_reach(
     if 1.01 * farthest.sqrt() <= PROJECTION_REACH * nearest.sqrt() + slack {
         return true;
     }
-    // (not farther, so that a NaN distance, which no bound decides, is within reach)
-    !(mass_distance(model, trial, poses)
-        > PROJECTION_REACH * mass_distance(model, trial, start) + slack)
+    let moved = mass_distance(model, trial, poses);
+    let allowed = PROJECTION_REACH * mass_distance(model, trial, start) + slack;
+    // not farther: a NaN distance, which no bound decides, is within reach
+    moved.partial_cmp(&allowed) != Some(std::cmp::Ordering::Greater)
 }
 
 /// `mass_distance` of moving every free body by `length`.
