@@ -473,6 +473,22 @@ mod tests {
         )
     }
 
+    /// Every kind of joint.
+    const KINDS: [JointKind; 4] = [
+        JointKind::Revolute,
+        JointKind::Prismatic,
+        JointKind::Spherical,
+        JointKind::Fixed,
+    ];
+
+    /// A position drive whose profile moves, from t = 0.1 at 2 a second.
+    fn moving_drive() -> Drive {
+        Drive::Position(ScalarProfile::Rate {
+            start: 0.1,
+            rate: 2.0,
+        })
+    }
+
     /// Two bodies turned and moved off any joint's assembled configuration.
     fn off_assembly() -> Vec<Pose> {
         vec![
@@ -492,12 +508,7 @@ mod tests {
     #[test]
     fn row_gradients_match_finite_differences() {
         let poses = off_assembly();
-        for kind in [
-            JointKind::Revolute,
-            JointKind::Prismatic,
-            JointKind::Spherical,
-            JointKind::Fixed,
-        ] {
+        for kind in KINDS {
             let assembled = vec![
                 poses[0],
                 Pose {
@@ -544,16 +555,8 @@ mod tests {
     #[test]
     fn row_values_are_the_rows_without_gradients() {
         let poses = off_assembly();
-        let drive = Drive::Position(ScalarProfile::Rate {
-            start: 0.1,
-            rate: 2.0,
-        });
-        for kind in [
-            JointKind::Revolute,
-            JointKind::Prismatic,
-            JointKind::Spherical,
-            JointKind::Fixed,
-        ] {
+        let drive = moving_drive();
+        for kind in KINDS {
             for (a, b) in [(Some(0), Some(1)), (None, Some(1)), (Some(0), None)] {
                 let mut j = test_joint(kind, &[Pose::identity(); 2], Some(drive.clone()));
                 (j.a, j.b) = (a, b);
@@ -579,16 +582,8 @@ mod tests {
     #[test]
     fn rows_on_the_ground_are_those_on_a_body_at_the_identity() {
         let poses = vec![Pose::identity(), off_assembly()[1]];
-        let drive = Drive::Position(ScalarProfile::Rate {
-            start: 0.1,
-            rate: 2.0,
-        });
-        for kind in [
-            JointKind::Revolute,
-            JointKind::Prismatic,
-            JointKind::Spherical,
-            JointKind::Fixed,
-        ] {
+        let drive = moving_drive();
+        for kind in KINDS {
             let on_body = test_joint(kind, &off_assembly(), Some(drive.clone()));
             let mut on_ground = on_body.clone();
             on_ground.a = None;
