@@ -122,10 +122,10 @@ impl Elimination {
     /// values c of `rows` (those rows at the poses projected), into `dnu`. It meets
     /// H Δν = −c, so it removes the violation to first order as the Gauss–Newton step
     /// M⁻¹Cᵀ(C M⁻¹Cᵀ)⁻¹(−c) does, along directions that differ from it by O(h), with the
-    /// factors this step has already formed. S is solved once, without the refinement the joints' impulses take:
-    /// the projection evaluates the rows where the step lands and keeps it only if it
-    /// halves their violation. False where the rows are not these (another count) or the
-    /// solve fails.
+    /// factors this step has already formed. S is solved once, without the refinement the
+    /// joints' impulses take: the projection evaluates the rows where the step lands and
+    /// keeps it only if it halves their violation. False where the rows are not these
+    /// (another count) or the solve fails.
     pub(super) fn chord_step(&mut self, rows: &[BilateralRow], dnu: &mut DVector<f64>) -> bool {
         if rows.is_empty() || rows.len() != self.h.len() {
             return false;
