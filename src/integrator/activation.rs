@@ -3,6 +3,7 @@
 //! the step would carry a journal across its clearance; the joints and the pressed or
 //! penetrating contacts are then projected onto their manifolds.
 
+use super::moreau_jean::spare_poses;
 use super::projection::ContactRows;
 use super::simulation::{
     hand_back_all_points, hand_back_points, spare_all_points, Closing, Outcome, Simulation,
@@ -117,7 +118,7 @@ impl Simulation {
                 active.sort_unstable();
                 continue;
             }
-            let mut poses = vs.poses.clone();
+            let mut poses = spare_poses(&vs.poses);
             // Project onto g = 0, as equalities, the active contacts that penetrate and those
             // that stay closed (pressed, not separating: u_N,k+1 ≤ e|u_N,k|/2). A contact that
             // rebounds (e > 0) and ended with g > 0 is left where it is: pulling it down onto
@@ -241,6 +242,7 @@ mod tests {
                     })));
                     crate::integrator::simulation::poison_lists();
                     crate::integrator::opposed::poison_lists();
+                    crate::integrator::moreau_jean::poison_lists();
                 }
                 let mut sim = Scene::bundled_simulation(name);
                 let mut pressed = 0;

@@ -6,8 +6,8 @@
 
 use super::elimination::Elimination;
 use super::moreau_jean::{
-    hand_back_elimination, velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart,
-    VelocityStep,
+    hand_back_elimination, hand_back_poses, spare_poses, velocity_step, ActiveAt, ActiveContact,
+    JointRowsAt, StepStart, VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::parts::Depth;
@@ -731,7 +731,7 @@ impl Simulation {
                     .filter(|&i| forecast(&self.points[i]))
                     .collect();
                 let mut vs = self.velocity(&active);
-                let mut poses = vs.poses.clone();
+                let mut poses = spare_poses(&vs.poses);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
                     let chord = vs.elimination.as_deref_mut();
@@ -781,7 +781,7 @@ impl Simulation {
     pub(super) fn commit(&mut self, outcome: Outcome, t: f64) -> StepReport {
         let Outcome {
             active,
-            vs,
+            mut vs,
             poses,
             points,
             mut report,
@@ -789,10 +789,12 @@ impl Simulation {
         } = outcome;
         self.record_contacts(&active, &vs);
         // the elimination's storage back to the thread, for the next step's
-        hand_back_elimination(vs.elimination);
-        self.joint_impulses = vs.joint_impulses;
+        hand_back_elimination(vs.elimination.take());
+        std::mem::swap(&mut self.joint_impulses, &mut vs.joint_impulses);
         self.active = active;
-        self.state = State { t, poses, v: vs.v };
+        std::mem::swap(&mut self.state.v, &mut vs.v);
+        let left = std::mem::replace(&mut self.state.poses, poses);
+        self.state.t = t;
         // `compute` checked the poses of every outcome it returned
         if !self.model.clearance_joints.is_empty() {
             self.checked_poses.clone_from(&self.state.poses);
@@ -803,6 +805,9 @@ impl Simulation {
         report.newton_converged = vs.newton_converged;
         report.solver = vs.solver;
         report.plastic = vs.plastic;
+        // the storage of the state left and of the step's lists, for the next step's
+        hand_back_poses(left);
+        vs.hand_back();
         report
     }
 
