@@ -132,12 +132,12 @@ impl Elimination {
         }
         let q = &mut self.chord;
         buffer::fit(q, rows.len());
-        q.iter_mut().zip(rows).for_each(|(q, r)| *q = -r.value);
+        (q.as_mut_slice().iter_mut().zip(rows)).for_each(|(q, r)| *q = -r.value);
         self.schur.solve_unrefined_in_place(q.as_mut_slice());
         buffer::fit(dnu, 6 * (self.z_start.len() - 1));
-        dnu.fill(0.0);
+        dnu.as_mut_slice().fill(0.0);
         self.add_response(&self.chord, dnu);
-        dnu.iter().all(|x| x.is_finite())
+        dnu.as_slice().iter().all(|x| x.is_finite())
     }
 
     /// Z's blocks on body `b`: (row of G, W⁻¹ g_bᵀ).
@@ -150,7 +150,7 @@ impl Elimination {
     pub(super) fn impulses_into(&mut self, v_free: &DVector<f64>, q: &mut DVector<f64>) {
         let v = v_free.as_slice();
         buffer::fit(q, self.h.len());
-        for (qk, r) in q.iter_mut().zip(&self.h) {
+        for (qk, r) in q.as_mut_slice().iter_mut().zip(&self.h) {
             *qk = r.rate - rows::dot(r, v);
         }
         self.schur.solve_in_place(q.as_mut_slice(), &mut self.work);

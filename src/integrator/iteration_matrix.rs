@@ -300,7 +300,11 @@ impl IterationMatrix {
             }
         }
         // held dofs: identity rows and columns, so their solution component is zero
+        let free = |i: usize| mask[6 * i..6 * i + 6].iter().all(|&m| m);
         let clamp = |m: &mut Matrix6<f64>, i: usize, j: usize| {
+            if free(i) && free(j) {
+                return;
+            }
             for r in 0..6 {
                 for c in 0..6 {
                     if !mask[6 * i + r] || !mask[6 * j + c] {
@@ -426,6 +430,9 @@ impl IterationMatrix {
     ) {
         let masked = |b: usize, g: &SMatrix<f64, R, 6>| {
             let mut gt = g.transpose();
+            if self.mask[6 * b..6 * b + 6].iter().all(|&m| m) {
+                return gt;
+            }
             for k in 0..6 {
                 if !self.mask[6 * b + k] {
                     gt.row_mut(k).fill(0.0);

@@ -322,8 +322,14 @@ pub fn velocity_step(
             f1.axpy(-alpha, &*resid, 1.0);
         }
         // R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀
-        dv.copy_from(&v);
-        *dv -= v0;
+        for ((d, a), b) in dv
+            .as_mut_slice()
+            .iter_mut()
+            .zip(v.as_slice())
+            .zip(v0.as_slice())
+        {
+            *d = a - b;
+        }
         model.mass_times(&*dv, resid);
         resid.axpy(-h * theta, &*f1, 1.0);
         resid.axpy(-h * (1.0 - theta), &*f0, 1.0);

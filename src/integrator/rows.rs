@@ -64,8 +64,13 @@ pub fn inverse_mass_times_rows_into(
 pub fn mask(rows: &mut [BilateralRow], mask: &[bool]) {
     for row in rows {
         for (b, g) in row.a.iter_mut().chain(row.b.iter_mut()) {
-            for (j, x) in g.iter_mut().enumerate() {
-                if !mask[6 * *b + j] {
+            let held = &mask[6 * *b..6 * *b + 6];
+            // most bodies hold none of their degrees of freedom
+            if held.iter().all(|&m| m) {
+                continue;
+            }
+            for (x, &m) in g.as_mut_slice().iter_mut().zip(held) {
+                if !m {
                     *x = 0.0;
                 }
             }
@@ -75,7 +80,7 @@ pub fn mask(rows: &mut [BilateralRow], mask: &[bool]) {
 
 /// g · x for a row's block and the six entries of a body.
 fn dot6(g: &RowVector6<f64>, x: &[f64]) -> f64 {
-    g.iter().zip(x).fold(0.0, |s, (g, x)| s + g * x)
+    g.as_slice().iter().zip(x).fold(0.0, |s, (g, x)| s + g * x)
 }
 
 /// The row times v, for v with an entry per degree of freedom.

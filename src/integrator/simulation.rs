@@ -756,7 +756,7 @@ impl Simulation {
             }
             Scheme::CombinedProjection => self.combined(report),
         };
-        if outcome.vs.v.iter().any(|x| !x.is_finite())
+        if outcome.vs.v.as_slice().iter().any(|x| !x.is_finite())
             || outcome
                 .poses
                 .iter()

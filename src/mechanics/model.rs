@@ -125,7 +125,7 @@ impl Model {
     /// Entries of held degrees of freedom are zero. (The settling damping is the step's:
     /// the integrator adds it.)
     pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
-        out.fill(0.0);
+        out.as_mut_slice().fill(0.0);
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion == Motion::Fixed {
                 continue;
