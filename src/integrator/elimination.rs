@@ -132,7 +132,9 @@ impl Elimination {
         }
         let q = &mut self.chord;
         buffer::fit(q, rows.len());
-        (q.as_mut_slice().iter_mut().zip(rows)).for_each(|(q, r)| *q = -r.value);
+        for (qk, r) in q.as_mut_slice().iter_mut().zip(rows) {
+            *qk = -r.value;
+        }
         self.schur.solve_unrefined_in_place(q.as_mut_slice());
         buffer::fit(dnu, 6 * (self.z_start.len() - 1));
         dnu.as_mut_slice().fill(0.0);

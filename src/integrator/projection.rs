@@ -330,7 +330,9 @@ impl<'a> Linearised<'a> {
         let rows = current.rows();
         rows::inverse_mass_times_rows_into(minv, rows, ndof, &mut s.mct);
         buffer::fit(&mut s.c, rows.len());
-        (s.c.as_mut_slice().iter_mut().zip(rows)).for_each(|(c, r)| *c = r.value);
+        for (c, r) in s.c.as_mut_slice().iter_mut().zip(rows) {
+            *c = r.value;
+        }
         let a = s.solver.zeroed(rows.len());
         add_rows_times(rows, &s.mct, a);
         let linear = Linearised {
