@@ -111,11 +111,15 @@ pub fn within_reach(
 ) -> bool {
     let (mut farthest, mut nearest) = (0.0, 0.0);
     for (body, ((t, p), s)) in model.bodies.iter().zip(trial.iter().zip(poses).zip(start)) {
-        let free = f64::from(u8::from(body.motion == Motion::Free));
+        // the mass that translations move, as `Body::kinetic_energy` counts it
+        let mass = if body.motion == Motion::Free {
+            body.mass
+        } else {
+            0.0
+        };
         let turn = std::f64::consts::PI * (t.p.inverse() * p.p).imag().norm();
-        farthest +=
-            free * body.mass * (p.x - t.x).norm_squared() + body.inertia.trace() * turn * turn;
-        nearest += free * body.mass * (s.x - t.x).norm_squared();
+        farthest += mass * (p.x - t.x).norm_squared() + body.inertia.trace() * turn * turn;
+        nearest += mass * (s.x - t.x).norm_squared();
     }
     if 1.01 * farthest.sqrt() <= PROJECTION_REACH * nearest.sqrt() + slack {
         return true;
