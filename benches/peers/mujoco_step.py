@@ -17,6 +17,17 @@ import time
 import mujoco
 
 H = 'timestep="0.001" gravity="0 0 -9.81"'
+
+
+def sliding_down_the_slope(data):
+    """The incline block's start: 2 m/s down the 20° slope."""
+    data.qvel[0:3] = [1.8793852415718169, 0.0, -0.6840402866513374]
+
+
+def spun_about_the_intermediate_axis(data):
+    """The free body's start: body-frame angular velocity (0.01, 2, 0.01) rad/s."""
+    data.qvel[3:6] = [0.01, 2.0, 0.01]
+
 CASES = {
     # studies/bouncing-ball: a 1 kg sphere of radius 0.1 m dropped from 1 m onto a plane
     "step/bouncing_ball": (
@@ -34,7 +45,7 @@ CASES = {
         <geom type="box" size="0.1 0.1 0.025" mass="1" friction="0.5 0 0"/></body>
         </worldbody></mujoco>""",
         3.0,
-        lambda d: d.qvel.__setitem__(slice(0, 3), [1.8793852415718169, 0, -0.6840402866513374]),
+        sliding_down_the_slope,
     ),
     # studies/free-body: inertia diag(1, 2, 3), spun about the intermediate axis, no gravity
     "step/free_rigid_body": (
@@ -42,7 +53,7 @@ CASES = {
         <body><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="1 2 3"/></body>
         </worldbody></mujoco>""",
         10.0,
-        lambda d: d.qvel.__setitem__(slice(3, 6), [0.01, 2.0, 0.01]),
+        spun_about_the_intermediate_axis,
     ),
     # studies/pendulum: a 1 kg bar 1 m × 20 mm × 20 mm pivoting about y at its end
     "scheme/pendulum": (
