@@ -4,8 +4,9 @@
 //! same pivots, the multipliers scaled by the pivot's reciprocal, the same updates in the
 //! same order), so its factors and solutions are bit-identical to nalgebra's; it skips the
 //! updates whose multiplier or pivot-row entry is zero, which leave an entry unchanged, and
-//! runs its inner loops over contiguous slices.
+//! runs its inner loops over contiguous slices, unrolled for the sizes up to 6 (`sized!`).
 
+use crate::math::sized::sized;
 use nalgebra::{DMatrix, DVector};
 
 /// The factors L U = P A of a square matrix, stored in place (column-major).
@@ -69,65 +70,14 @@ impl Lu {
 
     /// Overwrites the matrix held in `lu` with its factors.
     fn factorise(&mut self) {
-        let n = self.n;
         let Lu {
+            n,
             lu,
             swaps,
-            nonzero: rows,
-            ..
+            nonzero,
         } = self;
         swaps.clear();
-        for i in 0..n {
-            let column = &lu[i * n..(i + 1) * n];
-            let mut piv = i;
-            let mut max = column[i].abs();
-            for (r, x) in column.iter().enumerate().skip(i + 1) {
-                if x.abs() > max {
-                    max = x.abs();
-                    piv = r;
-                }
-            }
-            let diag = column[piv];
-            if diag == 0.0 {
-                continue;
-            }
-            if piv != i {
-                swaps.push((i, piv));
-                for c in 0..n {
-                    lu.swap(c * n + i, c * n + piv);
-                }
-            }
-            let inv_diag = 1.0 / diag;
-            let (head, tail) = lu.split_at_mut((i + 1) * n);
-            let coeffs = &mut head[i * n + i + 1..];
-            rows.clear();
-            for (r, x) in coeffs.iter_mut().enumerate() {
-                *x *= inv_diag;
-                if *x != 0.0 {
-                    rows.push(r);
-                }
-            }
-            if rows.is_empty() {
-                continue;
-            }
-            let dense = 2 * rows.len() > coeffs.len();
-            for column in tail.chunks_exact_mut(n) {
-                let p = column[i];
-                if p == 0.0 {
-                    continue;
-                }
-                let below = &mut column[i + 1..];
-                if dense {
-                    for (y, x) in below.iter_mut().zip(coeffs.iter()) {
-                        *y += -p * x;
-                    }
-                } else {
-                    for &r in rows.iter() {
-                        below[r] += -p * coeffs[r];
-                    }
-                }
-            }
-        }
+        sized!(*n, |n| factorise(lu, swaps, nonzero, n));
     }
 
     /// The nonzero entries of the factors L and U (L's unit diagonal not counted): what a
@@ -147,36 +97,99 @@ impl Lu {
     pub fn solve_in_place(&self, b: &mut [f64]) -> bool {
         let n = self.n;
         assert_eq!(b.len(), n, "LU solve: dimension mismatch");
-        for &(i, j) in &self.swaps {
-            b.swap(i, j);
-        }
-        for i in 0..n.saturating_sub(1) {
-            let coeff = b[i];
-            if coeff == 0.0 {
-                continue;
-            }
-            let column = &self.lu[i * n + i + 1..(i + 1) * n];
-            for (y, l) in b[i + 1..].iter_mut().zip(column) {
-                *y += -coeff * l;
-            }
-        }
-        for i in (0..n).rev() {
-            let diag = self.lu[i * n + i];
-            if diag == 0.0 {
-                return false;
-            }
-            let coeff = b[i] / diag;
-            b[i] = coeff;
-            if coeff == 0.0 {
-                continue;
-            }
-            let column = &self.lu[i * n..i * n + i];
-            for (y, u) in b[..i].iter_mut().zip(column) {
-                *y += -coeff * u;
-            }
-        }
-        true
+        sized!(n, |n| solve(&self.lu, &self.swaps, b, n))
     }
+}
+
+/// Overwrites the n × n matrix `lu` (column-major) with its factors, pushing its row
+/// swaps onto `swaps`; `rows` is scratch.
+#[inline(always)]
+fn factorise(lu: &mut [f64], swaps: &mut Vec<(usize, usize)>, rows: &mut Vec<usize>, n: usize) {
+    for i in 0..n {
+        let column = &lu[i * n..(i + 1) * n];
+        let mut piv = i;
+        let mut max = column[i].abs();
+        for (r, x) in column.iter().enumerate().skip(i + 1) {
+            if x.abs() > max {
+                max = x.abs();
+                piv = r;
+            }
+        }
+        let diag = column[piv];
+        if diag == 0.0 {
+            continue;
+        }
+        if piv != i {
+            swaps.push((i, piv));
+            for c in 0..n {
+                lu.swap(c * n + i, c * n + piv);
+            }
+        }
+        let inv_diag = 1.0 / diag;
+        let (head, tail) = lu.split_at_mut((i + 1) * n);
+        let coeffs = &mut head[i * n + i + 1..];
+        rows.clear();
+        for (r, x) in coeffs.iter_mut().enumerate() {
+            *x *= inv_diag;
+            if *x != 0.0 {
+                rows.push(r);
+            }
+        }
+        if rows.is_empty() {
+            continue;
+        }
+        let dense = 2 * rows.len() > coeffs.len();
+        for column in tail.chunks_exact_mut(n) {
+            let p = column[i];
+            if p == 0.0 {
+                continue;
+            }
+            let below = &mut column[i + 1..];
+            if dense {
+                for (y, x) in below.iter_mut().zip(coeffs.iter()) {
+                    *y += -p * x;
+                }
+            } else {
+                for &r in rows.iter() {
+                    below[r] += -p * coeffs[r];
+                }
+            }
+        }
+    }
+}
+
+/// Overwrites `b` with the solution of L U x = P b; false if U has a zero on its diagonal.
+#[inline(always)]
+fn solve(lu: &[f64], swaps: &[(usize, usize)], b: &mut [f64], n: usize) -> bool {
+    for &(i, j) in swaps {
+        b.swap(i, j);
+    }
+    for i in 0..n.saturating_sub(1) {
+        let coeff = b[i];
+        if coeff == 0.0 {
+            continue;
+        }
+        let column = &lu[i * n + i + 1..(i + 1) * n];
+        for (y, l) in b[i + 1..].iter_mut().zip(column) {
+            *y += -coeff * l;
+        }
+    }
+    for i in (0..n).rev() {
+        let diag = lu[i * n + i];
+        if diag == 0.0 {
+            return false;
+        }
+        let coeff = b[i] / diag;
+        b[i] = coeff;
+        if coeff == 0.0 {
+            continue;
+        }
+        let column = &lu[i * n..i * n + i];
+        for (y, u) in b[..i].iter_mut().zip(column) {
+            *y += -coeff * u;
+        }
+    }
+    true
 }
 
 #[cfg(test)]
@@ -227,6 +240,40 @@ mod tests {
                 let theirs = a.clone().lu().solve(&b).expect("regular");
                 assert_eq!(bits(&ours), bits(&theirs), "{name}, seed {seed}");
                 assert!((&a * &ours - &b).amax() < 1e-9 * ours.amax(), "{name}");
+            }
+        }
+    }
+
+    /// The sizes of joint and contact systems, which run loops compiled for their size
+    /// (`sized!`), give nalgebra's solutions bit for bit too, pivoting and skipping zeros.
+    #[test]
+    fn small_systems_are_nalgebras_bit_for_bit() {
+        for n in 1..=7 {
+            for seed in 1..40u64 {
+                let mut state = seed * 7919 + n as u64;
+                let mut next = move || {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+                };
+                // entries of either sign, a fifth of them zero, so that rows are swapped
+                // and updates skipped
+                let a = DMatrix::from_fn(n, n, |_, _| {
+                    let x = next();
+                    if x.abs() < 0.1 {
+                        0.0
+                    } else {
+                        x
+                    }
+                });
+                let b = DVector::from_fn(n, |i, _| (i as f64 * 0.37 + seed as f64).sin());
+                let ours = Lu::new(a.clone()).solve(&b);
+                let theirs = a.clone().lu().solve(&b);
+                assert_eq!(ours.as_ref().map(bits), theirs.map(|x| bits(&x)), "n = {n}");
+                if let Some(x) = ours {
+                    assert!((&a * &x - &b).amax() < 1e-8 * x.amax().max(1.0), "n = {n}");
+                }
             }
         }
     }

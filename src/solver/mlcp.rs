@@ -5,6 +5,7 @@
 
 use super::lu::Lu;
 use crate::math::buffer;
+use crate::math::sized::sized;
 use nalgebra::{DMatrix, DVector};
 
 /// Relative regularisation added to the diagonal: redundant constraints (closed loops)
@@ -77,29 +78,11 @@ impl EqualitySolver {
         let n = b.len();
         work.resize(3 * n, 0.0);
         work[..n].copy_from_slice(b);
-        let (rhs, rest) = work.split_at_mut(n);
-        let (az, dz) = rest.split_at_mut(n);
         if !self.lu.solve_in_place(b) {
             b.fill(f64::NAN);
             return;
         }
-        for _ in 0..2 {
-            // dz = rhs − A z, with A z summed column by column as nalgebra's product does
-            az.fill(0.0);
-            for (column, &zj) in self.a.as_slice().chunks_exact(n).zip(b.iter()) {
-                for (y, x) in az.iter_mut().zip(column) {
-                    *y += x * zj;
-                }
-            }
-            for ((d, r), y) in dz.iter_mut().zip(rhs.iter()).zip(az.iter()) {
-                *d = r - y;
-            }
-            if self.lu.solve_in_place(dz) {
-                for (z, d) in b.iter_mut().zip(dz.iter()) {
-                    *z += d;
-                }
-            }
-        }
+        sized!(n, |n| refine(&self.lu, self.a.as_slice(), b, work, n));
     }
 
     /// Overwrites `b` with the solution of the regularised system, without refinement;
@@ -118,6 +101,32 @@ impl EqualitySolver {
             self.solve_in_place(column.as_mut_slice(), &mut work);
         }
         out
+    }
+}
+
+/// Two steps of iterative refinement of the solution `z` of A z = rhs (A n × n,
+/// column-major, factorised in `lu`), with `rhs` at the head of `work` and room for two
+/// more vectors after it.
+#[inline(always)]
+fn refine(lu: &Lu, a: &[f64], z: &mut [f64], work: &mut [f64], n: usize) {
+    let (rhs, rest) = work.split_at_mut(n);
+    let (az, dz) = rest.split_at_mut(n);
+    for _ in 0..2 {
+        // dz = rhs − A z, with A z summed column by column as nalgebra's product does
+        az.fill(0.0);
+        for (column, &zj) in a.chunks_exact(n).zip(z.iter()) {
+            for (y, x) in az.iter_mut().zip(column) {
+                *y += x * zj;
+            }
+        }
+        for ((d, r), y) in dz.iter_mut().zip(rhs.iter()).zip(az.iter()) {
+            *d = r - y;
+        }
+        if lu.solve_in_place(dz) {
+            for (z, d) in z.iter_mut().zip(dz.iter()) {
+                *z += d;
+            }
+        }
     }
 }
 
