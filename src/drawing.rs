@@ -217,8 +217,8 @@ fn items(model: &Model, poses: &[Pose], view: View) -> Vec<Item> {
         ));
     }
     for c in &model.contacts {
-        shape_items(view, &pose_of(c.body1, poses), &c.shape1, "shape", &mut out);
-        shape_items(view, &pose_of(c.body2, poses), &c.shape2, "shape", &mut out);
+        shape_items(view, pose_of(c.body1, poses), &c.shape1, "shape", &mut out);
+        shape_items(view, pose_of(c.body2, poses), &c.shape2, "shape", &mut out);
     }
     for j in &model.clearance_joints {
         let bore = pose_of(j.bore_body, poses).point(&j.bore_center);

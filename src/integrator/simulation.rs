@@ -198,7 +198,7 @@ pub(super) fn poison_lists() {
         trial: vec![pose; 9],
         at: vec![pose; 9],
     })));
-    let frame = crate::mechanics::contact::BodyFrame::new(pose);
+    let frame = crate::mechanics::contact::BodyFrame::new(&pose);
     let nan = Vector3::from_element(f64::NAN);
     let stale = ContactPoint::new(
         crate::mechanics::contact::ContactGeometry {

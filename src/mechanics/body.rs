@@ -3,15 +3,25 @@
 //! diag(m I₃, I_body).
 
 use crate::math::compose_body;
-use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3, Vector4, Vector6};
 
 /// A body index, or `None` for the ground (the fixed inertial frame).
 pub type BodyRef = Option<usize>;
 
 /// The pose of body `r` among `poses`; the ground's (the identity) for `None`.
-pub fn pose_of(r: BodyRef, poses: &[Pose]) -> Pose {
-    r.map_or(Pose::identity(), |i| poses[i])
+///
+/// A reference, not a copy: a copy of a pose that a step has just written is read back
+/// in 16-byte pieces that straddle the ones it was stored in, and each waits for the
+/// stores to complete (measured: a third of the time of a joint's rows).
+pub fn pose_of(r: BodyRef, poses: &[Pose]) -> &Pose {
+    r.map_or(&GROUND, |i| &poses[i])
 }
+
+/// The ground's pose: the inertial frame.
+static GROUND: Pose = Pose {
+    x: Vector3::new(0.0, 0.0, 0.0),
+    p: UnitQuaternion::new_unchecked(Quaternion::from_vector(Vector4::new(0.0, 0.0, 0.0, 1.0))),
+};
 
 /// Twist of a body as (v inertial, Ω body).
 pub type Twist = Vector6<f64>;

@@ -335,8 +335,8 @@ impl Force {
                 let pb = pose_of(s.b, poses);
                 let ldot = if s.damping != 0.0 {
                     u.dot(
-                        &(point_velocity(&pb, &twist_of(s.b, twists), &xb)
-                            - point_velocity(&pa, &twist_of(s.a, twists), &xa)),
+                        &(point_velocity(pb, &twist_of(s.b, twists), &xb)
+                            - point_velocity(pa, &twist_of(s.a, twists), &xa)),
                     )
                 } else {
                     0.0
@@ -344,8 +344,8 @@ impl Force {
                 let tension = ramped(s.preload, s.ramp, t)
                     + s.stiffness * (l - s.rest_length)
                     + s.damping * ldot;
-                add_point_force(out, s.a, &pa, &xa, &(u * tension));
-                add_point_force(out, s.b, &pb, &xb, &(-u * tension));
+                add_point_force(out, s.a, pa, &xa, &(u * tension));
+                add_point_force(out, s.b, pb, &xb, &(-u * tension));
             }
             Force::Torsional(s) => {
                 let (phi, n) = s.angle(poses);
@@ -361,8 +361,8 @@ impl Force {
                 let m = ramped(s.preload, s.ramp, t)
                     + s.stiffness * (phi - s.rest_angle)
                     + s.damping * phidot;
-                add_torque(out, s.a, &pa, &(n * m));
-                add_torque(out, s.b, &pb, &(-n * m));
+                add_torque(out, s.a, pa, &(n * m));
+                add_torque(out, s.b, pb, &(-n * m));
             }
             Force::External(l) => {
                 let pose = poses[l.body];

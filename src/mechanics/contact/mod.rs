@@ -102,9 +102,9 @@ pub struct BodyFrame {
 }
 
 impl BodyFrame {
-    pub fn new(pose: Pose) -> Self {
+    pub fn new(pose: &Pose) -> Self {
         BodyFrame {
-            pose,
+            pose: *pose,
             rotation: *pose.p.to_rotation_matrix().matrix(),
         }
     }
@@ -284,7 +284,7 @@ impl ContactPair {
             _ => None,
         };
         if let Some((pin, profile)) = pin_on_profile {
-            let c = profile.contact(&p2, &profile::Pin::of(pin, &p1), k);
+            let c = profile.contact(p2, &profile::Pin::of(pin, p1), k);
             *slot = ContactPoint::new(
                 c.geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
             );
@@ -295,7 +295,7 @@ impl ContactPair {
             });
             return;
         }
-        let geometry = primitives::closest(&self.shape1, &p1, &self.shape2, &p2, k);
+        let geometry = primitives::closest(&self.shape1, p1, &self.shape2, p2, k);
         *slot = ContactPoint::new(
             geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
         );
@@ -552,7 +552,7 @@ mod tests {
     /// normal's own turn of the start's; and the Jacobian is the one built on those tangents.
     #[test]
     fn tangents_carried_across_the_basis_seam_stay_put() {
-        let body = BodyFrame::new(Pose {
+        let body = BodyFrame::new(&Pose {
             x: Vector3::new(0.1, -0.2, 0.3),
             p: UnitQuaternion::from_euler_angles(0.3, -0.2, 0.7),
         });

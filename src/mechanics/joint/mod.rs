@@ -316,8 +316,8 @@ impl Joint {
                 (i, rot, skew(&(x - pose.x)) * rot)
             })
         };
-        let on_a = frame(self.a, &pa, &xa);
-        let on_b = frame(self.b, &pb, &xb);
+        let on_a = frame(self.a, pa, &xa);
+        let on_b = frame(self.b, pb, &xb);
         // Each row is pushed blank and filled where it lies: a row of 152 bytes built aside
         // and copied in is read back while its stores are still in flight.
         // e·(x_b − x_a) for a world direction e carried by a (fixed = false) or the ground
@@ -447,8 +447,8 @@ impl Joint {
                 }
             }
         };
-        add(self.b, &pb, 1.0);
-        add(self.a, &pa, -1.0);
+        add(self.b, pb, 1.0);
+        add(self.a, pa, -1.0);
     }
 }
 
