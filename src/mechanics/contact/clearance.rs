@@ -161,7 +161,7 @@ impl ClearanceJoint {
             let guard = offset != 0;
             // a guard is open when it acts: frictionless, on the linearised gap
             let lateral = (!guard).then(|| self.lateral(&g, &a_j, &pb, &pj));
-            *slot = ContactPoint::new(
+            slot.renew(
                 g,
                 self.bore_body,
                 &pb,
@@ -198,7 +198,7 @@ impl ClearanceJoint {
                 point1: x,
                 point2: x - nu * gap,
             };
-            *slot = ContactPoint::new(
+            slot.renew(
                 g,
                 self.journal_body,
                 &pj,

@@ -285,7 +285,7 @@ impl ContactPair {
         };
         if let Some((pin, profile)) = pin_on_profile {
             let c = profile.contact(p2, &profile::Pin::of(pin, p1), k);
-            *slot = ContactPoint::new(
+            slot.renew(
                 c.geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
             );
             slot.lateral = c.lateral.map(|(dir, at, kappa)| Lateral {
@@ -296,7 +296,7 @@ impl ContactPair {
             return;
         }
         let geometry = primitives::closest(&self.shape1, p1, &self.shape2, p2, k);
-        *slot = ContactPoint::new(
+        slot.renew(
             geometry, self.body1, &f1, self.body2, &f2, None, self.mu, self.e,
         );
     }
@@ -317,24 +317,42 @@ impl ContactPoint {
         mu: f64,
         e: f64,
     ) -> ContactPoint {
+        let mut point = ContactPoint::placeholder();
+        point.renew(geometry, body1, p1, body2, p2, tangents, mu, e);
+        point
+    }
+
+    /// `new` written over this point, field by field where it lies: a point of 520 bytes
+    /// built aside and copied in is read back in pieces that straddle those it was stored
+    /// in, and the copy waits for every store to complete.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn renew(
+        &mut self,
+        geometry: ContactGeometry,
+        body1: BodyRef,
+        p1: &BodyFrame,
+        body2: BodyRef,
+        p2: &BodyFrame,
+        tangents: Option<(Vector3<f64>, Vector3<f64>)>,
+        mu: f64,
+        e: f64,
+    ) {
         let n = geometry.normal;
         let (t1, t2) = tangents.unwrap_or_else(|| tangent_basis(&n));
-        let frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
+        self.frame = Matrix3::from_rows(&[n.transpose(), t1.transpose(), t2.transpose()]);
         let arm = |body: &BodyFrame| body.pose.x - geometry.point1;
-        ContactPoint {
-            geometry,
-            frame,
-            body1,
-            body2,
-            jacobian: Jacobian::Lever {
-                rotation: [p1.rotation, p2.rotation],
-                arm: [arm(p1), arm(p2)],
-            },
-            mu,
-            e,
-            gap_law: false,
-            lateral: None,
-        }
+        self.jacobian = Jacobian::Lever {
+            rotation: [p1.rotation, p2.rotation],
+            arm: [arm(p1), arm(p2)],
+        };
+        self.geometry = geometry;
+        self.body1 = body1;
+        self.body2 = body2;
+        self.mu = mu;
+        self.e = e;
+        self.gap_law = false;
+        self.lateral = None;
     }
 
     /// Any point, to be written over.
