@@ -158,6 +158,31 @@ impl std::ops::Deref for ContactBlocks {
 }
 
 impl ContactBlocks {
+    const EMPTY: ContactBlocks = ContactBlocks {
+        blocks: [(
+            0,
+            Matrix3x6::new(
+                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                0.0, 0.0,
+            ),
+        ); 2],
+        len: 0,
+    };
+
+    /// The blocks of contact `c` on its moving bodies (`mask`), written over these where
+    /// they lie: blocks of 304 bytes built aside and copied into a list are read back in
+    /// pieces that straddle those they were stored in, and the copy waits for the stores.
+    fn write(&mut self, c: &ContactPoint, mask: &[bool]) {
+        let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
+        self.len = 0;
+        for (side, body) in [c.body1, c.body2].into_iter().enumerate() {
+            if let Some(b) = body.filter(|&b| moving(b)) {
+                self.blocks[self.len] = (b, c.block(side));
+                self.len += 1;
+            }
+        }
+    }
+
     /// The local velocity (u_N, u_T1, u_T2) these rows measure for the twists `v`.
     fn velocity(&self, v: &DVector<f64>) -> Vector3<f64> {
         let mut u = Vector3::zeros();
@@ -169,17 +194,8 @@ impl ContactBlocks {
 }
 
 fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
-    let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
-    let mut out = ContactBlocks {
-        blocks: [(0, Matrix3x6::zeros()); 2],
-        len: 0,
-    };
-    for (side, body) in [c.body1, c.body2].into_iter().enumerate() {
-        if let Some(b) = body.filter(|&b| moving(b)) {
-            out.blocks[out.len] = (b, c.block(side));
-            out.len += 1;
-        }
-    }
+    let mut out = ContactBlocks::EMPTY;
+    out.write(c, mask);
     out
 }
 
@@ -658,9 +674,11 @@ struct ContactProblem {
 impl ContactProblem {
     /// Every contact on its start-of-step rows.
     fn start_rows(&mut self, active: &[ActiveContact], mask: &[bool]) {
-        self.g.clear();
-        self.g
-            .extend(active.iter().map(|c| contact_blocks(c.point, mask)));
+        // over the entries the last step left (`ContactBlocks::write`)
+        self.g.resize(active.len(), ContactBlocks::EMPTY);
+        for (g, c) in self.g.iter_mut().zip(active) {
+            g.write(c.point, mask);
+        }
         self.turned = false;
     }
 
