@@ -83,22 +83,31 @@ fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
 /// non-finite state). A block without translation–rotation coupling (a body under torsional
 /// springs and dampers only, with its gyroscopic term) is inverted as two 3×3 blocks in
 /// closed form.
-fn inverse6(m: Matrix6<f64>) -> Matrix6<f64> {
+fn inverse6(m: &Matrix6<f64>) -> Matrix6<f64> {
+    let mut inverse = Matrix6::zeros();
+    inverse6_into(m, &mut inverse);
+    inverse
+}
+
+/// `inverse6` written into `out`, which holds zeros, where it lies: a 6×6
+/// block built aside and copied into a group is read back in pieces that straddle those
+/// it was stored in, and the copy waits for the stores.
+fn inverse6_into(m: &Matrix6<f64>, out: &mut Matrix6<f64>) {
     let uncoupled = m.fixed_view::<3, 3>(0, 3).iter().all(|&x| x == 0.0)
         && m.fixed_view::<3, 3>(3, 0).iter().all(|&x| x == 0.0);
-    let inverse = if uncoupled {
+    if uncoupled {
         let a = m.fixed_view::<3, 3>(0, 0).into_owned().try_inverse();
         let b = m.fixed_view::<3, 3>(3, 3).into_owned().try_inverse();
-        a.zip(b).map(|(a, b)| {
-            let mut inv = Matrix6::zeros();
-            inv.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
-            inv.fixed_view_mut::<3, 3>(3, 3).copy_from(&b);
-            inv
-        })
-    } else {
-        m.lu().try_inverse()
-    };
-    inverse.unwrap_or_else(|| Matrix6::from_element(f64::NAN))
+        if let (Some(a), Some(b)) = (a, b) {
+            out.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
+            out.fixed_view_mut::<3, 3>(3, 3).copy_from(&b);
+            return;
+        }
+    } else if let Some(inverse) = m.lu().try_inverse() {
+        *out = inverse;
+        return;
+    }
+    out.fill(f64::NAN);
 }
 
 /// W, kept as the inverses of its groups. Its buffers are reused when it is assembled
@@ -318,11 +327,15 @@ impl IterationMatrix {
         }
         if off.is_empty() {
             // no force element couples two moving bodies: every body is its own group
-            self.groups
-                .extend(diag.iter().enumerate().map(|(body, d)| Group::Single {
+            for (body, d) in diag.iter().enumerate() {
+                self.groups.push(Group::Single {
                     body,
-                    inverse: inverse6(*d),
-                }));
+                    inverse: Matrix6::zeros(),
+                });
+                if let Some(Group::Single { inverse, .. }) = self.groups.last_mut() {
+                    inverse6_into(d, inverse);
+                }
+            }
             self.group_of.extend(0..n);
             (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
             return;
@@ -339,7 +352,7 @@ impl IterationMatrix {
                 group_of[first] = groups.len();
                 Group::Single {
                     body: first,
-                    inverse: inverse6(diag[first]),
+                    inverse: inverse6(&diag[first]),
                 }
             } else {
                 let bodies: Vec<usize> = (first..n).filter(|&b| roots[b] == first).collect();
@@ -533,13 +546,13 @@ mod tests {
         }
         for mixed in [false, true] {
             let w: Matrix6<f64> = w_like(1, mixed).fixed_view::<6, 6>(0, 0).into_owned();
-            let inv = inverse6(w);
+            let inv = inverse6(&w);
             assert!(
                 (w * inv - Matrix6::identity()).amax() < 1e-12,
                 "mixed {mixed}"
             );
         }
         assert!(inverse_coupled(DMatrix::zeros(12, 12))[(0, 0)].is_nan());
-        assert!(inverse6(Matrix6::zeros())[(0, 0)].is_nan());
+        assert!(inverse6(&Matrix6::zeros())[(0, 0)].is_nan());
     }
 }
