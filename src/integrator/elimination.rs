@@ -105,11 +105,18 @@ impl Elimination {
         );
         self.on_h.clear();
         self.on_h.resize(bodies, false);
+        let n = self.h.len();
+        let s = s.as_mut_slice();
         for (k, row) in self.h.iter().enumerate() {
             for (b, hb) in rows::blocks(row) {
                 self.on_h[*b] |= hb.iter().any(|&x| x != 0.0);
                 for (j, y) in &z[z_start[*b]..z_start[b + 1]] {
-                    s[(k, *j)] += hb.dot(&y.transpose());
+                    // summed in order from zero, as nalgebra's dot product is
+                    let mut dot = 0.0;
+                    for (x, y) in hb.iter().zip(y.iter()) {
+                        dot += x * y;
+                    }
+                    s[j * n + k] += dot;
                 }
             }
         }
