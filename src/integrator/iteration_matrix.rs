@@ -89,9 +89,9 @@ fn inverse6(m: &Matrix6<f64>) -> Matrix6<f64> {
     inverse
 }
 
-/// `inverse6` written into `out`, which holds zeros, where it lies: a 6×6
-/// block built aside and copied into a group is read back in pieces that straddle those
-/// it was stored in, and the copy waits for the stores.
+/// `inverse6` written into `out`, which holds zeros, where it lies: a 6×6 block built
+/// aside and copied into a group is read back in pieces that straddle those it was stored
+/// in, and the copy waits for the stores.
 fn inverse6_into(m: &Matrix6<f64>, out: &mut Matrix6<f64>) {
     let uncoupled = m.fixed_view::<3, 3>(0, 3).iter().all(|&x| x == 0.0)
         && m.fixed_view::<3, 3>(3, 0).iter().all(|&x| x == 0.0);

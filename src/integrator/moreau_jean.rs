@@ -18,7 +18,7 @@ use crate::mechanics::body::Twist;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus};
-use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
+use nalgebra::{ArrayStorage, DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
 use std::cell::RefCell;
 use std::thread::LocalKey;
 
@@ -158,13 +158,11 @@ impl std::ops::Deref for ContactBlocks {
 }
 
 impl ContactBlocks {
+    /// No blocks: a list's entry before it is written.
     const EMPTY: ContactBlocks = ContactBlocks {
         blocks: [(
             0,
-            Matrix3x6::new(
-                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                0.0, 0.0,
-            ),
+            Matrix3x6::from_array_storage(ArrayStorage([[0.0; 3]; 6])),
         ); 2],
         len: 0,
     };
