@@ -14,7 +14,7 @@ use crate::math::{any_orthogonal, skew};
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::body::{pose_of, Pose};
 use crate::mechanics::contact::{ContactGeometry, ContactPoint};
-use nalgebra::{RowVector6, Vector3};
+use nalgebra::{Matrix3, RowVector6, Vector3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JointKind {
@@ -320,27 +320,8 @@ impl Joint {
         let on_b = frame(self.b, pb, &xb);
         // Each row is pushed blank and filled where it lies: a row of 152 bytes built aside
         // and copied in is read back while its stores are still in flight.
-        // e·(x_b − x_a) for a world direction e carried by a (fixed = false) or the ground
         let translation = |e: Vector3<f64>, carried_by_a: bool, row: &mut BilateralRow| {
-            row.b = on_b.map(|(i, _, lever_b)| {
-                let mut gb = RowVector6::zeros();
-                gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
-                gb.fixed_columns_mut::<3>(3)
-                    .copy_from(&(-e.transpose() * lever_b));
-                (i, gb)
-            });
-            row.a = on_a.map(|(i, ra, lever_a)| {
-                let mut ga = RowVector6::zeros();
-                ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
-                let mut rot = e.transpose() * lever_a;
-                if carried_by_a {
-                    rot += e.cross(&d).transpose() * ra;
-                }
-                ga.fixed_columns_mut::<3>(3).copy_from(&rot);
-                (i, ga)
-            });
-            row.value = e.dot(&d);
-            row.unit = RowUnit::Length;
+            translation_row(e, carried_by_a, &d, &on_a, &on_b, row)
         };
         // x·y with x = R_a X (on a), y = R_b Y (on b): ḣ = (ω_b − ω_a)·(y × x)
         let angular = |x: Vector3<f64>, y: Vector3<f64>, row: &mut BilateralRow| {
@@ -450,6 +431,42 @@ impl Joint {
         add(self.b, pb, 1.0);
         add(self.a, pa, -1.0);
     }
+}
+
+/// A body's index, rotation and the lever of its anchor, for the rows' gradients.
+type OnBody = Option<(usize, Matrix3<f64>, Matrix3<f64>)>;
+
+/// The row e·(x_b − x_a) = e·d for a world direction e carried by a (`carried_by_a`) or
+/// the ground, filled in `row` where it lies. Inlined: called as a closure, it ran as a
+/// call per row.
+#[inline(always)]
+fn translation_row(
+    e: Vector3<f64>,
+    carried_by_a: bool,
+    d: &Vector3<f64>,
+    on_a: &OnBody,
+    on_b: &OnBody,
+    row: &mut BilateralRow,
+) {
+    row.b = on_b.map(|(i, _, lever_b)| {
+        let mut gb = RowVector6::zeros();
+        gb.fixed_columns_mut::<3>(0).copy_from(&e.transpose());
+        gb.fixed_columns_mut::<3>(3)
+            .copy_from(&(-e.transpose() * lever_b));
+        (i, gb)
+    });
+    row.a = on_a.map(|(i, ra, lever_a)| {
+        let mut ga = RowVector6::zeros();
+        ga.fixed_columns_mut::<3>(0).copy_from(&(-e.transpose()));
+        let mut rot = e.transpose() * lever_a;
+        if carried_by_a {
+            rot += e.cross(d).transpose() * ra;
+        }
+        ga.fixed_columns_mut::<3>(3).copy_from(&rot);
+        (i, ga)
+    });
+    row.value = e.dot(d);
+    row.unit = RowUnit::Length;
 }
 
 #[cfg(test)]
