@@ -12,7 +12,7 @@
 
 use crate::math::blocks::vector6_at;
 use crate::math::skew;
-use crate::mechanics::body::Twist;
+use crate::mechanics::body::{holds_none, moves, Twist};
 use crate::mechanics::force::RotationBlock;
 use crate::mechanics::{Model, Pose};
 use nalgebra::{DMatrix, DVector, Dyn, Matrix6, SMatrix, StorageMut, Vector};
@@ -219,13 +219,15 @@ impl IterationMatrix {
         // force buffers and perturbed copies of the state (restored after each difference),
         // made on the first finite difference
         let mut scratch: Option<Differences> = None;
-        let moving = |i: usize| mask[6 * i..6 * i + 6].iter().any(|&m| m);
         // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
         let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
                                    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
                                    blocks: &[RotationBlock],
                                    weight: f64| {
-            for &(x, y, d) in blocks.iter().filter(|b| moving(b.0) && moving(b.1)) {
+            for &(x, y, d) in blocks
+                .iter()
+                .filter(|b| moves(mask, b.0) && moves(mask, b.1))
+            {
                 let blk = if x == y {
                     &mut diag[x]
                 } else {
@@ -254,7 +256,7 @@ impl IterationMatrix {
                 .iter()
                 .flatten()
                 .copied()
-                .filter(|&i| mask[6 * i..6 * i + 6].iter().any(|&m| m))
+                .filter(|&i| moves(mask, i))
                 .collect();
             let first_dof = if f.rotational_only() { 3 } else { 0 };
             for &b in &bodies {
@@ -309,9 +311,8 @@ impl IterationMatrix {
             }
         }
         // held dofs: identity rows and columns, so their solution component is zero
-        let free = |i: usize| mask[6 * i..6 * i + 6].iter().all(|&m| m);
         let clamp = |m: &mut Matrix6<f64>, i: usize, j: usize| {
-            if free(i) && free(j) {
+            if holds_none(mask, i) && holds_none(mask, j) {
                 return;
             }
             for r in 0..6 {
@@ -443,7 +444,7 @@ impl IterationMatrix {
     ) {
         let masked = |b: usize, g: &SMatrix<f64, R, 6>| {
             let mut gt = g.transpose();
-            if self.mask[6 * b..6 * b + 6].iter().all(|&m| m) {
+            if holds_none(&self.mask, b) {
                 return gt;
             }
             for k in 0..6 {
@@ -482,7 +483,7 @@ impl IterationMatrix {
                         }
                     }
                     for (gj, &bb) in bodies.iter().enumerate() {
-                        if self.mask[6 * bb..6 * bb + 6].iter().any(|&m| m) {
+                        if moves(&self.mask, bb) {
                             let mut y = SMatrix::<f64, 6, R>::zeros();
                             for (gk, g) in &terms[..count] {
                                 y += inverse.fixed_view::<6, 6>(6 * gj, 6 * gk) * g;

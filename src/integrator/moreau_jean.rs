@@ -14,7 +14,7 @@ use super::simulation::hand_back_points;
 use crate::math::blocks::vector3;
 use crate::math::buffer::{self, copy_into, zeros};
 use crate::math::kept;
-use crate::mechanics::body::Twist;
+use crate::mechanics::body::{moves, Twist};
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
 use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus};
@@ -171,10 +171,9 @@ impl ContactBlocks {
     /// they lie: blocks of 304 bytes built aside and copied into a list are read back in
     /// pieces that straddle those they were stored in, and the copy waits for the stores.
     fn write(&mut self, c: &ContactPoint, mask: &[bool]) {
-        let moving = |b: usize| mask[6 * b..6 * b + 6].iter().any(|&m| m);
         self.len = 0;
         for (side, body) in [c.body1, c.body2].into_iter().enumerate() {
-            if let Some(b) = body.filter(|&b| moving(b)) {
+            if let Some(b) = body.filter(|&b| moves(mask, b)) {
                 self.blocks[self.len] = (b, c.block(side));
                 self.len += 1;
             }

@@ -4,6 +4,7 @@
 //! freedom.
 
 use crate::math::buffer;
+use crate::mechanics::body::holds_none;
 use crate::mechanics::joint::BilateralRow;
 use nalgebra::{DMatrix, DVector, Matrix6, RowVector6};
 
@@ -64,12 +65,10 @@ pub fn inverse_mass_times_rows_into(
 pub fn mask(rows: &mut [BilateralRow], mask: &[bool]) {
     for row in rows {
         for (b, g) in row.a.iter_mut().chain(row.b.iter_mut()) {
-            let held = &mask[6 * *b..6 * *b + 6];
-            // most bodies hold none of their degrees of freedom
-            if held.iter().all(|&m| m) {
+            if holds_none(mask, *b) {
                 continue;
             }
-            for (x, &m) in g.as_mut_slice().iter_mut().zip(held) {
+            for (x, &m) in g.as_mut_slice().iter_mut().zip(&mask[6 * *b..6 * *b + 6]) {
                 if !m {
                     *x = 0.0;
                 }

@@ -17,6 +17,20 @@ pub fn pose_of(r: BodyRef, poses: &[Pose]) -> &Pose {
     r.map_or(&GROUND, |i| &poses[i])
 }
 
+/// Whether body `b` integrates any of its six degrees of freedom in the per-dof `mask`
+/// (`Model::dof_mask`).
+#[inline]
+pub fn moves(mask: &[bool], b: usize) -> bool {
+    mask[6 * b..6 * b + 6].iter().any(|&m| m)
+}
+
+/// Whether body `b` integrates all six of its degrees of freedom in the per-dof `mask`,
+/// holding none: most bodies, whose blocks need no masking.
+#[inline]
+pub fn holds_none(mask: &[bool], b: usize) -> bool {
+    mask[6 * b..6 * b + 6].iter().all(|&m| m)
+}
+
 /// The ground's pose: the inertial frame.
 static GROUND: Pose = Pose {
     x: Vector3::new(0.0, 0.0, 0.0),
