@@ -17,6 +17,7 @@ pub mod math;
 pub mod mechanics;
 pub mod probe;
 pub mod probe_run;
+pub mod reliability;
 pub mod report;
 pub mod scene;
 pub mod simulate;
