@@ -56,6 +56,9 @@ pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
         opts.shard.count,
         out.display()
     );
+    if study.reliability.is_some() {
+        return rare_event(&study, &opts, &signals);
+    }
     let r = runner::run(&study, &opts)?;
     eprintln!(
         "{} samples run ({} failed) into {} part file(s), {} already done, in {:.1} s ({:.1} samples/s)",
@@ -96,4 +99,32 @@ pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
         );
     }
     Ok(None)
+}
+
+/// Runs a rare-event study batch by batch, and prints its estimate when done.
+fn rare_event(study: &Study, opts: &RunOptions, signals: &StopSignals) -> Result<Option<u8>> {
+    use crate::reliability::study::{describe, run, Ended};
+    match run(study, opts)? {
+        Ended::Done(f) => {
+            print!("{}", describe(&f, study));
+            eprintln!(
+                "results: {}, {}",
+                f.results.display(),
+                opts.out.join("summary.json").display()
+            );
+            Ok(None)
+        }
+        Ended::ShardDone { batch, remaining } => {
+            eprintln!(
+                "this shard's part of batch {batch} is done; {remaining} runs of the batch remain in other shards. When every shard has finished, rerun to go on to the next batch."
+            );
+            Ok(None)
+        }
+        Ended::Stopped => {
+            eprintln!(
+                "stopped: every finished simulation is saved; rerun the same command to resume"
+            );
+            Ok(Some(signals.exit_status().unwrap_or(130)))
+        }
+    }
 }

@@ -160,6 +160,17 @@ impl Distribution {
         }
     }
 
+    /// The value at standard-normal coordinate z: the Φ(z)-quantile, computed directly
+    /// where the distribution is a transformed normal so that the far tails keep their
+    /// precision.
+    pub fn from_standard(&self, z: f64) -> f64 {
+        match *self {
+            Distribution::Normal { mean, sd } => mean + sd * z,
+            Distribution::Lognormal { mu, sigma } => (mu + sigma * z).exp(),
+            _ => self.quantile(phi(z)),
+        }
+    }
+
     /// Mean and standard deviation in closed form (for reports and tests).
     pub fn moments(&self) -> (f64, f64) {
         match *self {

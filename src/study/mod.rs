@@ -103,6 +103,33 @@ pub struct Study {
     pub output_dir: PathBuf,
     /// Suspect samples count as failures (`suspect: fail`) rather than as flagged values.
     pub suspect_fails: bool,
+    /// A rare-event estimate instead of plain sampling (`reliability:`).
+    pub reliability: Option<RareEvent>,
+}
+
+/// What a sample whose simulation failed counts as in a rare-event study.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FailedSamples {
+    /// A failure of the mechanism (the default: near the limits, a failed run must not
+    /// pass silently).
+    Fail,
+    Pass,
+    /// Stop the study with an error.
+    Error,
+}
+
+/// The `reliability:` block of a study, validated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RareEvent {
+    /// `subset` or `monte-carlo`.
+    pub method: String,
+    pub target_cov: f64,
+    pub p0: f64,
+    pub max_simulations: u64,
+    pub importance: bool,
+    /// The outputs (indices into `Study::outputs`) whose limits define failure.
+    pub outputs: Vec<usize>,
+    pub failed_samples: FailedSamples,
 }
 
 /// The scene parameter paths (`integrator.h`, …) that a `fidelity` block sets.
@@ -503,6 +530,10 @@ impl Study {
                 ))
             }
         };
+        let reliability = match &spec.reliability {
+            None => None,
+            Some(r) => Some(rare_event(r, &outputs, &parameters, kind, &spec, n as u64)?),
+        };
         Ok(Study {
             name,
             description: spec.description.clone().unwrap_or_default(),
@@ -516,12 +547,25 @@ impl Study {
             outputs,
             output_dir,
             suspect_fails,
+            reliability,
         })
     }
 
-    /// Total runs (sample ids 0..runs).
+    /// Total runs (sample ids 0..runs); for a rare-event study, the most it may take.
     pub fn runs(&self) -> u64 {
-        self.design.runs()
+        match &self.reliability {
+            Some(r) => r.max_simulations,
+            None => self.design.runs(),
+        }
+    }
+
+    /// The inputs (SI) at standard-normal coordinates u, one per parameter.
+    pub fn inputs_at_standard(&self, u: &[f64]) -> Vec<f64> {
+        self.parameters
+            .iter()
+            .zip(u)
+            .map(|(p, &z)| p.distribution.from_standard(z))
+            .collect()
     }
 
     /// Sample i's inputs (SI), in `parameters` order.
@@ -537,6 +581,11 @@ impl Study {
     /// Runs sample i.
     pub fn run_sample(&self, i: u64) -> (Vec<f64>, Outcome) {
         let x = self.inputs(i);
+        (x.clone(), self.run_inputs(&x))
+    }
+
+    /// Runs the subject at inputs `x` (SI, in `parameters` order).
+    pub fn run_inputs(&self, x: &[f64]) -> Outcome {
         let params: Vec<(&str, f64)> = self
             .parameters
             .iter()
@@ -544,8 +593,7 @@ impl Study {
             .zip(x.iter().copied())
             .collect();
         let selected: Vec<usize> = self.outputs.iter().map(|o| o.index).collect();
-        let outcome = self.subject.run(&params, &selected);
-        (x, outcome)
+        self.subject.run(&params, &selected)
     }
 
     /// SHA-256 over what determines the results: the tool version, the study and scene
@@ -559,4 +607,142 @@ impl Study {
         h.update(format!("\n--- samples {} ---\n", self.design.base));
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
+}
+
+/// Validates a study's `reliability:` block.
+fn rare_event(
+    r: &Spanned<schema::ReliabilitySpec>,
+    outputs: &[Output],
+    parameters: &[Parameter],
+    kind: DesignKind,
+    spec: &StudySpec,
+    n: u64,
+) -> Result<RareEvent, StudyError> {
+    let v = &r.value;
+    let method = match &v.method {
+        None => "subset".to_string(),
+        Some(m) if m.value == "subset" || m.value == "monte-carlo" => m.value.clone(),
+        Some(m) => {
+            return Err(at(
+                line(m),
+                "reliability.method",
+                format!("unknown method `{}` (subset, monte-carlo)", m.value),
+            ))
+        }
+    };
+    if kind != DesignKind::Random {
+        return Err(at(
+            spec.design.as_ref().and_then(line),
+            "design",
+            "a rare-event study draws its own samples: leave `design` out, or set it to random",
+        ));
+    }
+    if parameters.is_empty() {
+        return Err(at(
+            line(r),
+            "reliability",
+            "needs at least one sampled parameter",
+        ));
+    }
+    let target_cov = v.target_cov.as_ref().map_or(0.1, |t| t.value);
+    if !(target_cov > 0.0 && target_cov < 10.0) {
+        return Err(at(
+            v.target_cov.as_ref().and_then(line),
+            "reliability.target_cov",
+            format!("must lie in (0, 10), got {target_cov}"),
+        ));
+    }
+    let p0 = v.p0.as_ref().map_or(0.1, |t| t.value);
+    if !(p0 > 0.0 && p0 <= 0.5) {
+        return Err(at(
+            v.p0.as_ref().and_then(line),
+            "reliability.p0",
+            format!("must lie in (0, 0.5], got {p0}"),
+        ));
+    }
+    let max_simulations = v.max_simulations.as_ref().map_or(100_000, |t| t.value);
+    let limited: Vec<usize> = (0..outputs.len())
+        .filter(|&k| outputs[k].lower.is_some() || outputs[k].upper.is_some())
+        .collect();
+    let chosen = match &v.output {
+        None if limited.is_empty() => {
+            return Err(at(
+                line(r),
+                "reliability",
+                "failure is an output outside its limits, and the study gives no `limits`",
+            ))
+        }
+        None => limited,
+        Some(n) => {
+            let Some(k) = outputs.iter().position(|o| o.name == n.value) else {
+                return Err(at(
+                    line(n),
+                    "reliability.output",
+                    format!(
+                        "`{}` is not among the study's outputs ({})",
+                        n.value,
+                        outputs
+                            .iter()
+                            .map(|o| o.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ));
+            };
+            if !limited.contains(&k) {
+                return Err(at(
+                    line(n),
+                    "reliability.output",
+                    format!(
+                        "`{}` has no `limits`: give it a lower or upper limit",
+                        n.value
+                    ),
+                ));
+            }
+            vec![k]
+        }
+    };
+    let failed_samples = match v.failed_samples.as_ref().map(|f| f.value.as_str()) {
+        None | Some("fail") => FailedSamples::Fail,
+        Some("pass") => FailedSamples::Pass,
+        Some("error") => FailedSamples::Error,
+        Some(other) => {
+            return Err(at(
+                v.failed_samples.as_ref().and_then(line),
+                "reliability.failed_samples",
+                format!("`{other}`: expected fail, pass or error"),
+            ))
+        }
+    };
+    let settings = crate::reliability::Settings {
+        p0,
+        importance: v.importance.as_ref().is_none_or(|b| b.value),
+        max_simulations,
+        ..crate::reliability::Settings::new(
+            if method == "subset" {
+                crate::reliability::Method::Subset
+            } else {
+                crate::reliability::Method::MonteCarlo
+            },
+            n as usize,
+            target_cov,
+            0,
+        )
+    };
+    settings.validate().map_err(|m| {
+        at(
+            line(&spec.samples),
+            "samples",
+            format!("with `reliability`: {m}"),
+        )
+    })?;
+    Ok(RareEvent {
+        method,
+        target_cov,
+        p0,
+        max_simulations,
+        importance: settings.importance,
+        outputs: chosen,
+        failed_samples,
+    })
 }

@@ -208,6 +208,7 @@ impl Study {
                 .iter()
                 .map(|o| (o.name.clone(), o.unit.clone()))
                 .collect(),
+            tagged: self.reliability.is_some(),
         }
     }
 
@@ -242,7 +243,12 @@ impl Study {
 
     /// The row of sample i; with `suspect: fail`, a suspect sample is a failed one.
     pub fn row(&self, i: u64) -> Row {
-        let (inputs, mut o) = self.run_sample(i);
+        self.row_at(i, self.inputs(i))
+    }
+
+    /// The row of a run numbered i at `inputs`.
+    pub fn row_at(&self, i: u64, inputs: Vec<f64>) -> Row {
+        let mut o = self.run_inputs(&inputs);
         if self.suspect_fails {
             if let Some(why) = o.suspect.take() {
                 o.error = Some(format!("suspect: {why}"));
@@ -256,6 +262,7 @@ impl Study {
             diagnostics: o.diagnostics,
             error: o.error,
             suspect: o.suspect,
+            tag: None,
         }
     }
 }
@@ -464,10 +471,23 @@ fn next_seq(out: &Path, shard: Shard) -> Result<u64> {
 
 /// Runs the pending samples of `opts.shard` into `opts.out`.
 pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
+    run_rows(study, opts, (0, study.runs()), &|i| study.row(i))
+}
+
+/// Runs the samples of `opts.shard`'s part of the ids [first, end) that are not stored
+/// yet, `row(i)` computing sample i's row: a plain study's ids, or one batch of an
+/// adaptive study.
+pub fn run_rows(
+    study: &Study,
+    opts: &RunOptions,
+    (first, end): (u64, u64),
+    row: &(dyn Fn(u64) -> Row + Sync),
+) -> Result<RunReport> {
     let start = Instant::now();
     let out = opts.out.as_path();
     let (done_before, _shard_lock) = prepare(study, out, opts.shard)?;
-    let (a, b) = opts.shard.range(study.runs());
+    let (a, b) = opts.shard.range(end - first);
+    let (a, b) = (first + a, first + b);
     let pending = done_before.missing_in(a, b);
     let mut writer = Writer {
         study,
@@ -574,7 +594,7 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<RunReport> {
                     if stop.load(Ordering::Relaxed) {
                         return Err(());
                     }
-                    tx.send(study.row(i)).map_err(|_| ())
+                    tx.send(row(i)).map_err(|_| ())
                 })
                 .ok();
         });

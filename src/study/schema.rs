@@ -32,6 +32,27 @@ pub struct StudySpec {
     /// What a suspect sample counts as: `keep` (default: its values count, flagged) or
     /// `fail` (a failure: its values are left out).
     pub suspect: Option<Name>,
+    /// A rare-event estimate of the out-of-spec probability instead of plain sampling.
+    pub reliability: Option<Spanned<ReliabilitySpec>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReliabilitySpec {
+    /// `subset` (default) or `monte-carlo`.
+    pub method: Option<Name>,
+    /// Coefficient of variation to reach (default 0.1).
+    pub target_cov: Option<Spanned<f64>>,
+    /// Conditional probability of a subset level (default 0.1).
+    pub p0: Option<Spanned<f64>>,
+    /// Simulations at most (default 100000).
+    pub max_simulations: Option<Spanned<u64>>,
+    /// Refine subset simulation by importance sampling (default true).
+    pub importance: Option<Spanned<bool>>,
+    /// The one output whose limits define failure (default: any output with limits).
+    pub output: Option<Name>,
+    /// What a sample whose simulation fails counts as: `fail` (default), `pass` or `error`.
+    pub failed_samples: Option<Name>,
 }
 
 #[derive(Debug, Deserialize)]

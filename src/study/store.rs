@@ -28,6 +28,19 @@ pub struct Row {
     pub error: Option<String>,
     /// Why the values of a run that went through are suspect (see `Outcome`).
     pub suspect: Option<String>,
+    /// Where the run sits in an adaptive (rare-event) study; `None` in a plain one.
+    pub tag: Option<Tag>,
+}
+
+/// Where a run of an adaptive study sits: its batch, stage, level, chain, and (in the
+/// merged results, once the margin's scales are known) its margin.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tag {
+    pub batch: u64,
+    pub stage: String,
+    pub level: u64,
+    pub chain: Option<u64>,
+    pub margin: Option<f64>,
 }
 
 impl Row {
@@ -50,6 +63,9 @@ impl Row {
 pub struct Columns {
     pub inputs: Vec<(String, String)>,
     pub outputs: Vec<(String, String)>,
+    /// The rows carry a [`Tag`]: the columns `batch`, `stage`, `level`, `chain`, `margin`.
+    #[serde(default)]
+    pub tagged: bool,
 }
 
 /// Diagnostic columns: (name, unit, description).
@@ -77,8 +93,26 @@ pub const DIAGNOSTICS: [(&str, &str, &str); 5] = [
     ),
 ];
 
+/// The columns of an adaptive study's rows: (name, description).
+pub const TAGS: [(&str, &str); 5] = [
+    (
+        "batch",
+        "the batch of the adaptive study the run belongs to",
+    ),
+    ("stage", "monte-carlo, subset or importance"),
+    (
+        "level",
+        "the subset level, or the importance-sampling round",
+    ),
+    ("chain", "the Markov chain of a subset level above 0"),
+    (
+        "margin",
+        "the scaled distance to the nearest limit, negative outside (merged results only)",
+    ),
+];
+
 /// Column names no input or output may take: those of the results' own columns.
-pub const RESERVED: [&str; 8] = [
+pub const RESERVED: [&str; 13] = [
     "sample_id",
     "status",
     "error",
@@ -87,6 +121,11 @@ pub const RESERVED: [&str; 8] = [
     "max_solver_residual",
     "nonconverged_steps",
     "wall_ms",
+    "batch",
+    "stage",
+    "level",
+    "chain",
+    "margin",
 ];
 
 /// Why `name` cannot name an output column, if it cannot: a reserved column's name, or a
@@ -137,6 +176,13 @@ impl Columns {
         }
         fields.push(field("status", DataType::Utf8, false, "status", ""));
         fields.push(field("error", DataType::Utf8, true, "status", ""));
+        if self.tagged {
+            fields.push(field("batch", DataType::UInt64, false, "tag", ""));
+            fields.push(field("stage", DataType::Utf8, false, "tag", ""));
+            fields.push(field("level", DataType::UInt64, false, "tag", ""));
+            fields.push(field("chain", DataType::UInt64, true, "tag", ""));
+            fields.push(field("margin", DataType::Float64, true, "tag", ""));
+        }
         Schema::new_with_metadata(fields, metadata)
     }
 
@@ -172,6 +218,29 @@ impl Columns {
                 .map(|r| r.error.as_deref().or(r.suspect.as_deref()))
                 .collect::<StringArray>(),
         ));
+        if self.tagged {
+            let tag = |r: &Row| -> Result<Tag> {
+                r.tag
+                    .clone()
+                    .with_context(|| format!("sample {} of an adaptive study has no tag", r.id))
+            };
+            let tags: Vec<Tag> = rows.iter().map(tag).collect::<Result<_>>()?;
+            cols.push(Arc::new(UInt64Array::from_iter_values(
+                tags.iter().map(|t| t.batch),
+            )));
+            cols.push(Arc::new(StringArray::from_iter_values(
+                tags.iter().map(|t| t.stage.as_str()),
+            )));
+            cols.push(Arc::new(UInt64Array::from_iter_values(
+                tags.iter().map(|t| t.level),
+            )));
+            cols.push(Arc::new(
+                tags.iter().map(|t| t.chain).collect::<UInt64Array>(),
+            ));
+            cols.push(Arc::new(
+                tags.iter().map(|t| t.margin).collect::<Float64Array>(),
+            ));
+        }
         Ok(RecordBatch::try_new(schema, cols)?)
     }
 }
@@ -296,6 +365,7 @@ pub fn read(path: &Path) -> Result<Table> {
     let columns = Columns {
         inputs: pick("input"),
         outputs: pick("output"),
+        tagged: !pick("tag").is_empty(),
     };
     let mut rows = Vec::new();
     for batch in builder.build()? {
@@ -318,6 +388,17 @@ pub fn read(path: &Path) -> Result<Table> {
         let wall = column::<Float64Array>(&batch, "wall_ms")?;
         let status = column::<StringArray>(&batch, "status")?;
         let error = column::<StringArray>(&batch, "error")?;
+        let tags = if columns.tagged {
+            Some((
+                column::<UInt64Array>(&batch, "batch")?,
+                column::<StringArray>(&batch, "stage")?,
+                column::<UInt64Array>(&batch, "level")?,
+                column::<UInt64Array>(&batch, "chain")?,
+                column::<Float64Array>(&batch, "margin")?,
+            ))
+        } else {
+            None
+        };
         for i in 0..batch.num_rows() {
             let text = (!error.is_null(i)).then(|| error.value(i).to_string());
             let (err, suspect) = match (status.value(i), text) {
@@ -345,6 +426,13 @@ pub fn read(path: &Path) -> Result<Table> {
                 },
                 error: err,
                 suspect,
+                tag: tags.map(|(b, s, l, c, m)| Tag {
+                    batch: b.value(i),
+                    stage: s.value(i).to_string(),
+                    level: l.value(i),
+                    chain: (!c.is_null(i)).then(|| c.value(i)),
+                    margin: (!m.is_null(i)).then(|| m.value(i)),
+                }),
             });
         }
     }
