@@ -81,7 +81,7 @@ fn main() {
             let p: Vec<f64> = runs.iter().map(|e| e.probability).collect();
             let mean = p.iter().sum::<f64>() / k;
             let cov = (p.iter().map(|x| (x - truth).powi(2)).sum::<f64>() / k).sqrt() / truth;
-            let reported = runs.iter().map(|e| e.cov).sum::<f64>() / k;
+            let reported = (runs.iter().map(|e| e.cov * e.cov).sum::<f64>() / k).sqrt();
             let sims = runs.iter().map(|e| e.simulations as f64).sum::<f64>() / k;
             let covered = runs
                 .iter()

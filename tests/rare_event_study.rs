@@ -32,7 +32,7 @@ fn options(out: &Path, threads: usize, shard: Shard) -> RunOptions {
     o.threads = Some(threads);
     o.shard = shard;
     o.progress = false;
-    o.rows_per_part = 64;
+    o.rows_per_part = 1024;
     o
 }
 
@@ -202,4 +202,97 @@ fn the_reliability_block_is_checked_where_it_is_written() {
     );
     // every error names the study file and a line
     assert!(e.contains("s.yaml:4"), "{e}");
+}
+
+fn fragile_study(policy: &str) -> Study {
+    let text = format!(
+        "name: fragile\nscene: fragile.yaml\nsamples: 500\nseed: 11\nparameters:\n  - {{ path: inputs.a, distribution: {{ normal: {{ mean: 0, sd: 1 }} }} }}\n  - {{ path: inputs.b, distribution: {{ normal: {{ mean: 0, sd: 1 }} }} }}\nlimits:\n  - {{ output: gap, upper: 6 }}\nreliability: {{ output: gap, failed_samples: {policy} }}\n"
+    );
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    Study::from_yaml(&text, "fragile.yaml", &base, None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn failed_runs_count_as_the_study_says() {
+    // counted as failures (the default), they are the event: P ≈ Φ(−4) = 3.17e-5
+    let out = scratch("rare-fragile-fail");
+    let f = finished(run(&fragile_study("fail"), &options(&out, 2, Shard::WHOLE)).unwrap());
+    let e = &f.estimate;
+    assert!(f.summary.failed_runs > 0);
+    assert!(
+        (e.probability / 3.167e-5 - 1.0).abs() < 0.5,
+        "{:e} against 3.167e-5",
+        e.probability
+    );
+    // counted as passes, only the gap's own tail is left: 9.9e-10
+    let out = scratch("rare-fragile-pass");
+    let f = finished(run(&fragile_study("pass"), &options(&out, 2, Shard::WHOLE)).unwrap());
+    assert!(
+        f.estimate.probability < 1e-8,
+        "{:e}",
+        f.estimate.probability
+    );
+    // or the study stops and names the run
+    let out = scratch("rare-fragile-error");
+    let err = run(&fragile_study("error"), &options(&out, 2, Shard::WHOLE))
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap_or_default();
+    assert!(
+        err.contains("failed") && err.contains("failed_samples: error"),
+        "{err}"
+    );
+}
+
+#[test]
+fn killed_mid_level_and_rerun_the_cli_gives_the_same_bits() {
+    use std::process::{Command, Stdio};
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/stack-study.yaml");
+    let whole = scratch("rare-cli-whole");
+    let killed = scratch("rare-cli-killed");
+    let run_to = |out: &Path| {
+        Command::new(exe)
+            .args([
+                "run",
+                study.to_str().unwrap(),
+                "--quiet",
+                "--part-rows",
+                "8",
+                "--out",
+            ])
+            .arg(out)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    assert!(run_to(&whole).wait().unwrap().success());
+    // SIGKILL once a few dozen parts are written: in the middle of a subset level
+    let mut child = run_to(&killed);
+    let parts = killed.join("parts");
+    loop {
+        let n = std::fs::read_dir(&parts).map(|d| d.count()).unwrap_or(0);
+        if n >= 40 {
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            panic!("the run ended before it could be killed");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!killed.join("summary.json").exists());
+    assert!(run_to(&killed).wait().unwrap().success());
+    assert_eq!(rows(&whole), rows(&killed));
+    let p = |out: &Path| {
+        let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&s).unwrap();
+        v["reliability"]["estimate"]["probability"]
+            .as_f64()
+            .unwrap()
+            .to_bits()
+    };
+    assert_eq!(p(&whole), p(&killed));
 }

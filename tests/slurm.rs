@@ -274,3 +274,58 @@ fn tasks_stopped_by_scancel_or_their_time_limit_keep_every_finished_sample() {
         );
     }
 }
+
+#[test]
+#[cfg_attr(
+    not(slurm_cluster),
+    ignore = "needs a Slurm cluster: `ci/local-slurm start`, then MC_STUDY_SLURM=1 cargo test (.ci/run does both)"
+)]
+fn a_rare_event_study_runs_as_one_array_whose_tasks_share_each_batch() {
+    // every task runs its shard of each batch, waits for the others to finish the batch,
+    // and goes on; the merge job then writes the estimate
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/stack-study.yaml");
+    let out = scratch("slurm-rare-event");
+    let deadline = Instant::now() + Duration::from_secs(600);
+    let printed = sh(
+        exe,
+        &[
+            "slurm",
+            study.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+            "--submit",
+        ],
+    );
+    let (job, merge_job) = job_ids(&printed);
+    wait_gone(&[&job, &merge_job], deadline);
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap_or_else(|e| {
+        let log = std::fs::read_to_string(out.join(format!("slurm/logs/merge-{merge_job}.out")))
+            .unwrap_or_default();
+        panic!("no summary.json ({e}); merge log:\n{log}")
+    });
+    let json: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let p = json["reliability"]["estimate"]["probability"]
+        .as_f64()
+        .unwrap();
+    // both tasks stored rows of the same batches
+    for label in ["0of2", "1of2"] {
+        assert!(
+            !parts_of(&out, label).is_empty(),
+            "task {label} stored nothing"
+        );
+    }
+    let single = scratch("slurm-rare-event-single");
+    let s = Study::load(&study, None).unwrap();
+    let mut o = RunOptions::new(single.clone());
+    o.progress = false;
+    let Ok(mc_study::reliability::study::Ended::Done(f)) =
+        mc_study::reliability::study::run(&s, &o)
+    else {
+        panic!("the single-machine run did not finish")
+    };
+    assert_eq!(p.to_bits(), f.estimate.probability.to_bits());
+    assert_eq!(rows(&out.join("results.parquet")), rows(&f.results));
+}

@@ -40,6 +40,22 @@ pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
             eprintln!("caution: {c}");
         }
     }
+    if let Some(r) = &study.reliability {
+        opts.wait_for_shards = true;
+        eprintln!(
+            "rare-event study {} ({} method, {} samples per level, target CoV {}, at most {} runs, seed {}), shard {}/{} → {}",
+            study.name,
+            r.method,
+            study.design.base,
+            r.target_cov,
+            r.max_simulations,
+            study.seed,
+            opts.shard.index,
+            opts.shard.count,
+            out.display()
+        );
+        return rare_event(&study, &opts, &signals);
+    }
     let (a, b) = opts.shard.range(study.runs());
     let samples = if a < b {
         format!("samples {a}–{}", b - 1)
@@ -56,9 +72,6 @@ pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
         opts.shard.count,
         out.display()
     );
-    if study.reliability.is_some() {
-        return rare_event(&study, &opts, &signals);
-    }
     let r = runner::run(&study, &opts)?;
     eprintln!(
         "{} samples run ({} failed) into {} part file(s), {} already done, in {:.1} s ({:.1} samples/s)",

@@ -18,6 +18,9 @@ pub struct ImportanceSettings {
     pub target_cov: f64,
     /// Simulations after which the stage stops, whatever its CoV.
     pub max_simulations: u64,
+    /// The stage gives up once reaching the target would take more simulations than this
+    /// (projected from the CoV so far, which falls as 1/√n).
+    pub patience: u64,
     /// A failure domain needing more components than this is left to subset simulation.
     pub max_components: usize,
     pub seed: u64,
@@ -44,6 +47,8 @@ pub struct ImportanceResult {
     pub largest_share: f64,
     /// The density of the last round.
     pub components: Vec<Component>,
+    /// The simulations the target would have taken, when the stage gave up on it.
+    pub gave_up: Option<u64>,
     /// Every sample with its weight (0 for a non-failing one), for the design point.
     pub samples: Vec<(Sample, f64)>,
 }
@@ -372,6 +377,7 @@ pub fn run(
     }
     let mut samples: Vec<(Sample, f64)> = Vec::new();
     let (mut p, mut cov) = (0.0, f64::INFINITY);
+    let mut gave_up = None;
     for r in PILOT_ROUNDS..PILOT_ROUNDS + MAX_ROUNDS {
         if cursor.simulations() - start + s.batch as u64 > s.max_simulations {
             break;
@@ -379,6 +385,11 @@ pub fn run(
         samples.extend(round(s, &mixture, s.batch, r, cursor)?);
         (p, cov) = estimate(&samples);
         if cov <= s.target_cov && samples.iter().filter(|(_, w)| *w > 0.0).count() >= 10 {
+            break;
+        }
+        let projected = samples.len() as f64 * (cov / s.target_cov).powi(2);
+        if samples.len() >= 2 * s.batch && projected > s.patience as f64 {
+            gave_up = Some(projected.ceil() as u64);
             break;
         }
     }
@@ -404,6 +415,7 @@ pub fn run(
             0.0
         },
         components: mixture,
+        gave_up,
         samples: pilot,
     })
 }

@@ -149,8 +149,8 @@ pub struct Estimate {
     /// The failing simulation closest to the origin in standard space (the most probable
     /// failure point), its id, and its margin.
     pub design_point: Option<DesignPoint>,
-    /// P(g ≤ m) against m, for the tail plot.
-    pub tail: Vec<(f64, f64)>,
+    /// (m, P(g ≤ m), its CoV) for the tail plot.
+    pub tail: Vec<(f64, f64, f64)>,
 }
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -259,6 +259,7 @@ fn subset_then_importance(
                         batch: s.level_samples,
                         target_cov: s.target_cov,
                         max_simulations: budget,
+                        patience: 10 * sus.simulations,
                         max_components: s.max_components,
                         seed: s.seed,
                     },
@@ -271,7 +272,17 @@ fn subset_then_importance(
                 } else {
                     f64::INFINITY
                 };
-                let overruled = if r.failures < 10 {
+                let overruled = if let Some(n) = r.gave_up {
+                    Some(format!(
+                        "it stopped after {} simulations: at its CoV of {:.3} the target would take about {n} (the sampling density fits the failure domain poorly)",
+                        r.simulations, r.cov
+                    ))
+                } else if r.cov >= sus.cov {
+                    Some(format!(
+                        "its CoV {:.3} is no better than subset simulation's {:.3} (the sampling density fits the failure domain poorly)",
+                        r.cov, sus.cov
+                    ))
+                } else if r.failures < 10 {
                     Some(format!("only {} failing samples", r.failures))
                 } else if r.largest_share > 0.5 {
                     Some(format!(
@@ -377,7 +388,10 @@ fn monte_carlo(s: &Settings, d: usize, cursor: &mut Cursor) -> Result<Estimate, 
         .iter()
         .enumerate()
         .filter(|(_, g)| g.is_finite())
-        .map(|(i, &g)| (g, (i + 1) as f64 / n as f64))
+        .map(|(i, &g)| {
+            let p = (i + 1) as f64 / n as f64;
+            (g, p, ((1.0 - p) / (n as f64 * p)).sqrt())
+        })
         .collect();
     let mut e = Estimate {
         method: Method::MonteCarlo.name().into(),

@@ -12,7 +12,8 @@ use crate::study::merge::collect;
 use crate::study::runner::{self, RunOptions};
 use crate::study::store::{self, Row};
 use crate::study::{FailedSamples, RareEvent, Study};
-use anyhow::{bail, Result};
+
+use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -34,7 +35,7 @@ impl RareEvent {
 }
 
 /// The margins of stored rows, scaled by the first batch's spread.
-struct Stored<'a> {
+pub struct Stored<'a> {
     study: &'a Study,
     rare: &'a RareEvent,
     rows: HashMap<u64, Row>,
@@ -198,29 +199,35 @@ fn stored_rows(study: &Study, out: &Path) -> Result<HashMap<u64, Row>> {
     Ok(table.rows.into_iter().map(|r| (r.id, r)).collect())
 }
 
-/// Runs (or resumes) a rare-event study into `opts.out`, batch after batch.
-pub fn run(study: &Study, opts: &RunOptions) -> Result<Ended> {
+/// The algorithm replayed on the rows stored in `out`: the estimate when the study is
+/// done, or the batch it needs next.
+pub fn replay<'a>(study: &'a Study, out: &Path) -> Result<(Progress, Stored<'a>)> {
     let rare = study
         .reliability
         .as_ref()
-        .expect("a study with a `reliability` block");
+        .context("the study has no `reliability` block")?;
     let settings = rare.settings(study.design.base, study.seed);
-    let d = study.parameters.len();
+    let mut stored = Stored {
+        study,
+        rare,
+        rows: stored_rows(study, out)?,
+        scales: None,
+        points: HashMap::new(),
+        error: None,
+    };
+    let progress = estimate(&settings, study.parameters.len(), &mut stored);
+    if let Some(e) = stored.error.take() {
+        bail!("{}: {e}", out.display());
+    }
+    Ok((progress, stored))
+}
+
+/// Runs (or resumes) a rare-event study into `opts.out`, batch after batch.
+pub fn run(study: &Study, opts: &RunOptions) -> Result<Ended> {
     loop {
-        let mut stored = Stored {
-            study,
-            rare,
-            rows: stored_rows(study, &opts.out)?,
-            scales: None,
-            points: HashMap::new(),
-            error: None,
-        };
-        let progress = estimate(&settings, d, &mut stored);
-        if let Some(e) = stored.error.take() {
-            bail!("{}: {e}", opts.out.display());
-        }
+        let (progress, stored) = replay(study, &opts.out)?;
         let request = match progress {
-            Progress::Done(e) => return finish(study, rare, *e, stored, &opts.out),
+            Progress::Done(e) => return finish(study, *e, stored, &opts.out),
             Progress::Needs(r) => r,
         };
         let n = request.points.len() as u64;
@@ -262,23 +269,52 @@ pub fn run(study: &Study, opts: &RunOptions) -> Result<Ended> {
             return Ok(Ended::Stopped);
         }
         if opts.shard.count > 1 {
-            let m = Manifest::load(&opts.out)?;
-            let remaining = m.completed.missing_in(first, first + n).count();
-            if remaining > 0 {
-                return Ok(Ended::ShardDone { batch, remaining });
+            let mut told = false;
+            loop {
+                let m = Manifest::load(&opts.out)?;
+                let remaining = m.completed.missing_in(first, first + n).count();
+                if remaining == 0 {
+                    break;
+                }
+                if !opts.wait_for_shards {
+                    return Ok(Ended::ShardDone { batch, remaining });
+                }
+                if opts.stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    return Ok(Ended::Stopped);
+                }
+                if !told && opts.progress {
+                    eprintln!(
+                        "batch {batch}: waiting for the other shards ({remaining} runs left)"
+                    );
+                    told = true;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(500));
             }
         }
     }
 }
 
 /// Writes `results.parquet` (every run with its margin) and `summary.json`.
-fn finish(
-    study: &Study,
-    rare: &RareEvent,
-    estimate: Estimate,
-    stored: Stored,
-    out: &Path,
-) -> Result<Ended> {
+fn finish(study: &Study, estimate: Estimate, stored: Stored, out: &Path) -> Result<Ended> {
+    let summary = summarise(study, estimate.clone(), &stored)?;
+    let mut rows = summary_rows(&stored, &estimate);
+    rows.sort_by_key(|r| r.id);
+    let results = out.join("results.parquet");
+    store::write(&results, &study.columns(), &rows, &study.file_metadata())?;
+    let json = serde_json::json!({ "reliability": summary });
+    let path = out.join("summary.json");
+    let tmp = out.join(format!(".summary.json.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, serde_json::to_string_pretty(&json)?)?;
+    std::fs::rename(&tmp, &path)?;
+    Ok(Ended::Done(Box::new(Finished {
+        estimate,
+        summary,
+        results,
+    })))
+}
+
+/// Every run of the estimate, with its margin.
+pub fn summary_rows(stored: &Stored, estimate: &Estimate) -> Vec<Row> {
     let scales = stored.scales.clone().unwrap_or_default();
     let mut rows: Vec<Row> = stored
         .rows
@@ -287,16 +323,23 @@ fn finish(
         .cloned()
         .collect();
     rows.sort_by_key(|r| r.id);
-    let mut failed = 0;
     for r in &mut rows {
-        failed += u64::from(r.failed());
         let g = stored.margin(r, &scales).ok();
         if let Some(t) = r.tag.as_mut() {
             t.margin = g;
         }
     }
-    let results = out.join("results.parquet");
-    store::write(&results, &study.columns(), &rows, &study.file_metadata())?;
+    rows
+}
+
+/// The summary of a finished estimate.
+pub fn summarise(study: &Study, estimate: Estimate, stored: &Stored) -> Result<RareEventSummary> {
+    let rare = stored.rare;
+    let failed = stored
+        .rows
+        .values()
+        .filter(|r| r.id < estimate.simulations && r.failed())
+        .count() as u64;
     let most_probable_failure = estimate.design_point.as_ref().and_then(|dp| {
         let id = stored
             .points
@@ -322,7 +365,7 @@ fn finish(
                 .collect(),
         })
     });
-    let summary = RareEventSummary {
+    Ok(RareEventSummary {
         study: study.name.clone(),
         event: rare
             .outputs
@@ -336,17 +379,7 @@ fn finish(
         failed_runs: failed,
         failed_samples: format!("{:?}", rare.failed_samples).to_lowercase(),
         most_probable_failure,
-    };
-    let json = serde_json::json!({ "reliability": summary });
-    let path = out.join("summary.json");
-    let tmp = out.join(".summary.json.tmp");
-    std::fs::write(&tmp, serde_json::to_string_pretty(&json)?)?;
-    std::fs::rename(&tmp, &path)?;
-    Ok(Ended::Done(Box::new(Finished {
-        estimate,
-        summary,
-        results,
-    })))
+    })
 }
 
 /// The printout of a finished rare-event study.
@@ -421,4 +454,66 @@ pub fn describe(f: &Finished, study: &Study) -> String {
         t += &format!("  note: {n}\n");
     }
     t
+}
+
+/// `mc-study merge` of a rare-event study: writes `results.parquet` and `summary.json` if
+/// the last batch is done.
+pub fn merge(out: &Path) -> Result<(Finished, Study)> {
+    let (manifest, table) = collect(out)?;
+    let study = crate::study::merge::stored_study(&manifest, &table)?;
+    match replay(&study, out)? {
+        (Progress::Done(e), stored) => match finish(&study, *e, stored, out)? {
+            Ended::Done(f) => Ok((*f, study.clone())),
+            _ => unreachable!("finish ends a study"),
+        },
+        (Progress::Needs(r), _) => bail!(
+            "the rare-event study in {} is not finished: batch {} (runs {}–{}) is still to run. Rerun `mc-study run` on it (or its shards) to go on",
+            out.display(),
+            r.tags.first().map_or(0, |t| t.batch),
+            r.first,
+            r.first + r.points.len() as u64 - 1
+        ),
+    }
+}
+
+/// `mc-study status` of a rare-event study: the runs stored, and the batch under way.
+pub fn status(out: &Path) -> Result<String> {
+    let (manifest, table) = collect(out)?;
+    let study = crate::study::merge::stored_study(&manifest, &table)?;
+    let (progress, stored) = replay(&study, out)?;
+    let mut t = format!(
+        "rare-event study {} ({} method, {} samples per level, at most {} runs): {} runs stored\n",
+        study.name,
+        stored.rare.method,
+        study.design.base,
+        stored.rare.max_simulations,
+        stored.rows.len()
+    );
+    match progress {
+        Progress::Done(e) => {
+            t += &format!(
+                "finished: P = {:.3e} (CoV {:.3}) in {} runs; `mc-study merge {}` writes its results\n",
+                e.probability,
+                e.cov,
+                e.simulations,
+                out.display()
+            );
+        }
+        Progress::Needs(r) => {
+            let n = r.points.len() as u64;
+            let done = (r.first..r.first + n)
+                .filter(|i| stored.rows.contains_key(i))
+                .count();
+            let tag = r.tags[0];
+            t += &format!(
+                "under way: batch {} ({} level {}), runs {}–{}: {done} of {n} done\n",
+                tag.batch,
+                tag.stage.name(),
+                tag.level,
+                r.first,
+                r.first + n - 1
+            );
+        }
+    }
+    Ok(t)
 }

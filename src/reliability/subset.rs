@@ -271,11 +271,14 @@ pub fn run(s: &SubsetSettings, d: usize, cursor: &mut Cursor) -> Result<SubsetRe
     })
 }
 
-/// Points of the tail curve P(g ≤ m) from the levels' samples: within level j, the
-/// fraction of its samples at or below m times the probabilities of the levels before.
-pub fn tail_curve(result: &SubsetResult) -> Vec<(f64, f64)> {
+/// Points of the tail curve (m, P(g ≤ m), CoV) from the levels' samples: within level j,
+/// the fraction f of its samples at or below m times the probabilities of the levels
+/// before; the CoV combines those levels' with the binomial one of f, inflated by the
+/// level's chain correlation, as the final estimate's is.
+pub fn tail_curve(result: &SubsetResult) -> Vec<(f64, f64, f64)> {
     let mut curve = Vec::new();
     let mut before = 1.0;
+    let (mut lower2, mut upper) = (0.0, 0.0);
     for (level, samples) in result.levels.iter().zip(&result.all_levels) {
         let mut g: Vec<f64> = samples.iter().map(|x| x.g).collect();
         g.sort_by(f64::total_cmp);
@@ -286,10 +289,15 @@ pub fn tail_curve(result: &SubsetResult) -> Vec<(f64, f64)> {
                 break;
             }
             if m.is_finite() && m <= level.conditioned_on {
-                curve.push((m, before * (k + 1) as f64 / n));
+                let f = (k + 1) as f64 / n;
+                let d = ((1.0 - f) / (n * f) * (1.0 + level.gamma)).sqrt();
+                let cov = ((lower2 + d * d) * (upper + d)).sqrt().sqrt();
+                curve.push((m, before * f, cov));
             }
         }
         before *= level.probability;
+        lower2 += level.cov * level.cov;
+        upper += level.cov;
     }
     curve.sort_by(|a, b| a.0.total_cmp(&b.0));
     curve.dedup_by(|a, b| a.0 == b.0);

@@ -4,6 +4,7 @@
 
 pub mod figures;
 mod html;
+mod rare_event;
 
 use crate::scene::units::DisplayUnit;
 use crate::study::converge::Convergence;
@@ -366,6 +367,9 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
 
 /// Builds the report of the result directory `out`.
 pub fn build(out: &Path) -> Result<Report> {
+    if crate::study::manifest::Manifest::load(out).is_ok_and(|m| m.columns.tagged) {
+        return rare_event::build(out);
+    }
     let data = analyse(out)?;
     let dir = out.join("report");
     let fig_dir = dir.join("figures");

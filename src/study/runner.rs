@@ -84,6 +84,10 @@ pub struct RunOptions {
     /// Set (by a stop signal) to stop starting samples; the rows done are written before
     /// return.
     pub stop: Arc<AtomicBool>,
+    /// In an adaptive (rare-event) study run in shards, wait for the other shards to
+    /// finish each batch and go on with the next, rather than return after this shard's
+    /// part of one batch.
+    pub wait_for_shards: bool,
 }
 
 impl RunOptions {
@@ -96,6 +100,7 @@ impl RunOptions {
             rows_per_part: 1024,
             seconds_per_part: 30.0,
             stop: Arc::new(AtomicBool::new(false)),
+            wait_for_shards: false,
         }
     }
 }
