@@ -30,7 +30,9 @@ enum Command {
     /// command resumes (completed samples are skipped); a complete unsharded run merges into
     /// OUT/results.parquet and prints the summary. Ctrl-C, SIGTERM (a scheduler's time limit,
     /// preemption or scancel) and SIGHUP stop the run after writing every finished sample,
-    /// with exit status 128 + the signal's number; a second signal exits at once.
+    /// with exit status 128 + the signal's number; a second signal exits at once. A study
+    /// with a `reliability` block estimates a rare out-of-spec rate instead, batch after
+    /// batch (docs/reliability.md); its shards wait for each other at every batch.
     Run {
         /// Study YAML file (see studies/*/study.yaml).
         study: PathBuf,

@@ -236,6 +236,14 @@ impl PyStudy {
         let stop = opts.stop.clone();
         // on Ctrl-C the runner stops starting samples and writes every finished one
         let (result, raised) = interruptible(py, &stop, || -> anyhow::Result<(String, bool)> {
+            if study.reliability.is_some() {
+                // a rare-event study: batch after batch, its results written when done
+                let done = matches!(
+                    mc_study::reliability::study::run(study, &opts)?,
+                    mc_study::reliability::study::Ended::Done(_)
+                );
+                return Ok((out.display().to_string(), done));
+            }
             let r = runner::run(study, &opts)?;
             let merged = r.missing.is_empty() && opts.shard.count == 1 && !r.interrupted;
             if merged {

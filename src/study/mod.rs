@@ -714,34 +714,31 @@ fn rare_event(
             ))
         }
     };
-    let settings = crate::reliability::Settings {
-        p0,
-        importance: v.importance.as_ref().is_none_or(|b| b.value),
-        max_simulations,
-        ..crate::reliability::Settings::new(
-            if method == "subset" {
-                crate::reliability::Method::Subset
-            } else {
-                crate::reliability::Method::MonteCarlo
-            },
-            n as usize,
-            target_cov,
-            0,
-        )
-    };
-    settings.validate().map_err(|m| {
-        at(
-            line(&spec.samples),
-            "samples",
-            format!("with `reliability`: {m}"),
-        )
-    })?;
+    if method == "subset" {
+        // a level keeps N p₀ seeds and grows a chain of 1/p₀ states from each
+        let whole = |x: f64| (x - x.round()).abs() < 1e-9;
+        let seeds = n as f64 * p0;
+        if !whole(1.0 / p0) || !whole(seeds) || seeds < 2.0 {
+            return Err(at(
+                line(&spec.samples),
+                "samples",
+                format!("with `reliability`: the samples per level ({n}) times p0 ({p0}) and 1/p0 must be whole numbers, with at least 2 chains (e.g. 100, 200, 500 or 1000 samples at p0 = 0.1)"),
+            ));
+        }
+    }
+    if max_simulations < n {
+        return Err(at(
+            v.max_simulations.as_ref().and_then(line),
+            "reliability.max_simulations",
+            format!("{max_simulations} is fewer than one batch of {n} samples"),
+        ));
+    }
     Ok(RareEvent {
         method,
         target_cov,
         p0,
         max_simulations,
-        importance: settings.importance,
+        importance: v.importance.as_ref().is_none_or(|b| b.value),
         outputs: chosen,
         failed_samples,
     })
