@@ -137,6 +137,8 @@ pub struct Estimate {
     pub beta: f64,
     pub beta_interval: (f64, f64),
     pub simulations: u64,
+    /// Samples per subset level (or per Monte-Carlo batch).
+    pub level_samples: u64,
     /// The stage whose number is the final one.
     pub stage: String,
     /// The figure is an upper bound, not an estimate (the failure domain was not reached).
@@ -217,10 +219,18 @@ fn finish(mut e: Estimate, target: f64) -> Estimate {
     e.beta = normal::beta(e.probability);
     e.beta_interval = (normal::beta(e.interval.1), normal::beta(e.interval.0));
     if !e.upper_bound && e.cov > target {
-        e.notes.push(format!(
-            "the coefficient of variation {:.3} is above the target {target}: raise max_simulations or the samples per level",
-            e.cov
-        ));
+        e.notes.push(if e.stage == Stage::Subset.name() {
+            format!(
+                "the coefficient of variation {:.3} is above the target {target}: subset simulation's falls as 1/√N, so the target would take about {:.0} samples per level",
+                e.cov,
+                (e.level_samples as f64 * (e.cov / target).powi(2)).ceil()
+            )
+        } else {
+            format!(
+                "the coefficient of variation {:.3} is above the target {target}: raise max_simulations",
+                e.cov
+            )
+        });
     }
     e
 }
@@ -340,6 +350,7 @@ fn subset_then_importance(
         beta: 0.0,
         beta_interval: (0.0, 0.0),
         simulations: cursor.simulations(),
+        level_samples: s.level_samples as u64,
         stage: chosen.2.name().into(),
         upper_bound: sus.incomplete.is_some(),
         failures_seen: failures_seen as u64,
@@ -401,6 +412,7 @@ fn monte_carlo(s: &Settings, d: usize, cursor: &mut Cursor) -> Result<Estimate, 
         beta: 0.0,
         beta_interval: (0.0, 0.0),
         simulations: n,
+        level_samples: s.level_samples as u64,
         stage: Stage::MonteCarlo.name().into(),
         upper_bound: k == 0,
         failures_seen: k,

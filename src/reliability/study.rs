@@ -382,6 +382,15 @@ pub fn summarise(study: &Study, estimate: Estimate, stored: &Stored) -> Result<R
     })
 }
 
+/// Six significant digits, in plain notation where that is short.
+fn number(x: f64) -> String {
+    if x == 0.0 || (1e-2..1e5).contains(&x.abs()) {
+        format!("{x:.6}")
+    } else {
+        format!("{x:.5e}")
+    }
+}
+
 /// The printout of a finished rare-event study.
 pub fn describe(f: &Finished, study: &Study) -> String {
     let e = &f.estimate;
@@ -444,10 +453,17 @@ pub fn describe(f: &Finished, study: &Study) -> String {
                 .iter()
                 .find(|q| &q.path == name)
                 .map_or("", |q| q.unit.as_str());
-            t += &format!("    {name} = {x:.6} {unit} ({u:+.2} σ)\n");
+            let unit = if unit == "1" { "" } else { unit };
+            t += &format!("    {name} = {} {unit} ({u:+.2} σ)\n", number(*x));
         }
         for (name, y) in &p.outputs {
-            t += &format!("    → {name} = {y:.6}\n");
+            let unit = study
+                .outputs
+                .iter()
+                .find(|o| &o.name == name)
+                .map_or("", |o| o.unit.as_str());
+            let unit = if unit == "1" { "" } else { unit };
+            t += &format!("    → {name} = {} {unit}\n", number(*y));
         }
     }
     for n in &e.notes {
