@@ -296,3 +296,62 @@ fn killed_mid_level_and_rerun_the_cli_gives_the_same_bits() {
     };
     assert_eq!(p(&whole), p(&killed));
 }
+
+#[test]
+fn status_merge_and_report_read_a_rare_event_directory() {
+    use std::process::Command;
+    let exe = env!("CARGO_BIN_EXE_mc-study");
+    let out = scratch("rare-cli-commands");
+    let study = stack_study("");
+    finished(run(&study, &options(&out, 2, Shard::WHOLE)).unwrap());
+    let cli = |args: &[&str]| {
+        let o = Command::new(exe).args(args).arg(&out).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let status = cli(&["status"]);
+    assert!(status.contains("finished: P = 9.9"), "{status}");
+    // a merge writes the same results and prints the estimate
+    let before = rows(&out);
+    std::fs::remove_file(out.join("results.parquet")).unwrap();
+    let merged = cli(&["merge"]);
+    assert!(
+        merged.contains("P(failure) = 9.9") && merged.contains("β = 4.7"),
+        "{merged}"
+    );
+    assert_eq!(before, rows(&out));
+    // the report: the estimate, the levels, the tail and the drivers
+    cli(&["report"]);
+    let html = std::fs::read_to_string(out.join("report/report.html")).unwrap();
+    for s in [
+        "P(failure)",
+        "95 % interval",
+        "Subset simulation",
+        "Most probable failure",
+        "<svg",
+    ] {
+        assert!(html.contains(s), "the report lacks `{s}`");
+    }
+    for f in ["tail.svg", "tail.png", "drivers.svg", "drivers.png"] {
+        assert!(out.join("report/figures").join(f).exists(), "{f}");
+    }
+    // with the later batches lost, status names the batch under way, and merge refuses
+    let mut parts: Vec<_> = std::fs::read_dir(out.join("parts"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "parquet"))
+        .collect();
+    parts.sort();
+    for p in &parts[5..] {
+        std::fs::remove_file(p).unwrap();
+    }
+    let status = cli(&["status"]);
+    assert!(status.contains("under way: batch 5"), "{status}");
+    let o = Command::new(exe).arg("merge").arg(&out).output().unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is not finished"));
+}
