@@ -25,7 +25,7 @@ use crate::scene::units::{Dim, DisplayUnit};
 use crate::scene::{SceneError, Tuning};
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
-use schema::{DistributionSpec, StudySpec};
+use schema::{DistributionSpec, StudySpec, ToleranceSpec};
 use serde_saphyr::Spanned;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
@@ -244,6 +244,92 @@ fn distribution(
     Ok(d)
 }
 
+/// A tolerance as a drawing states it: normal, centred on the band [n − minus, n + plus],
+/// with σ = (plus + minus) / (6 Cp); or uniform over the band.
+fn tolerance(
+    spec: &Spanned<ToleranceSpec>,
+    dim: Option<Dim>,
+    field: &str,
+) -> Result<Distribution, StudyError> {
+    let t = &spec.value;
+    let f = |s: &str| format!("{field}.{s}");
+    let finite = |x: &Q, name: &str| -> Result<f64, StudyError> {
+        let v = quantity(x, dim, &f(name))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(at(line(x), f(name), "must be finite"))
+        }
+    };
+    let width = |x: &Q, name: &str| -> Result<f64, StudyError> {
+        let v = finite(x, name)?;
+        if v < 0.0 {
+            return Err(at(
+                line(x),
+                f(name),
+                format!("a tolerance is a width ≥ 0, got {v}"),
+            ));
+        }
+        Ok(v)
+    };
+    let nominal = finite(&t.nominal, "nominal")?;
+    let (plus, minus) = match (&t.plus_minus, &t.plus, &t.minus) {
+        (Some(pm), None, None) => {
+            let w = width(pm, "plus_minus")?;
+            (w, w)
+        }
+        (None, Some(p), Some(m)) => (width(p, "plus")?, width(m, "minus")?),
+        _ => {
+            return Err(at(
+                line(spec),
+                field,
+                "give `plus_minus`, or both `plus` and `minus`",
+            ))
+        }
+    };
+    if plus + minus <= 0.0 {
+        return Err(at(line(spec), field, "the tolerance band has no width"));
+    }
+    let kind = t
+        .distribution
+        .as_ref()
+        .map_or("normal", |d| d.value.as_str());
+    match kind {
+        "normal" => {
+            let cp = t.cp.as_ref().map_or(1.0, |c| c.value);
+            if !(cp > 0.0 && cp.is_finite()) {
+                return Err(at(
+                    t.cp.as_ref().and_then(line),
+                    f("cp"),
+                    format!("a process capability must be > 0, got {cp}"),
+                ));
+            }
+            Ok(Distribution::Normal {
+                mean: nominal + 0.5 * (plus - minus),
+                sd: (plus + minus) / (6.0 * cp),
+            })
+        }
+        "uniform" => {
+            if let Some(c) = &t.cp {
+                return Err(at(
+                    line(c),
+                    f("cp"),
+                    "a uniform tolerance has no process capability: drop `cp`",
+                ));
+            }
+            Ok(Distribution::Uniform {
+                lower: nominal - minus,
+                upper: nominal + plus,
+            })
+        }
+        other => Err(at(
+            t.distribution.as_ref().and_then(line),
+            f("distribution"),
+            format!("`{other}`: expected normal or uniform"),
+        )),
+    }
+}
+
 impl Study {
     /// Reads and validates a study file; `samples` overrides its `samples`.
     pub fn load(path: &Path, samples: Option<u64>) -> Result<Study, StudyError> {
@@ -358,15 +444,37 @@ impl Study {
             let dim = subject
                 .parameter_dim(&p.path.value)
                 .map_err(|m| at(line(&p.path), format!("{field}.path"), m))?;
-            let distribution =
-                distribution(&p.distribution, dim, &format!("{field}.distribution"))?;
+            let (distribution, spec_line, spec_field) = match (&p.distribution, &p.tolerance) {
+                (Some(d), None) => {
+                    let f = format!("{field}.distribution");
+                    (distribution(d, dim, &f)?, line(d), f)
+                }
+                (None, Some(t)) => {
+                    let f = format!("{field}.tolerance");
+                    (tolerance(t, dim, &f)?, line(t), f)
+                }
+                (Some(_), Some(t)) => {
+                    return Err(at(
+                        line(t),
+                        format!("{field}.tolerance"),
+                        "give `distribution` or `tolerance`, not both",
+                    ))
+                }
+                (None, None) => {
+                    return Err(at(
+                        line(&p.path),
+                        field,
+                        "give a `distribution` or a `tolerance`",
+                    ))
+                }
+            };
             if let Subject::Mechanism(scene) = &subject {
                 // every value the distribution can give must be one the scene accepts
                 for v in distribution.extreme_values() {
                     if let Err(e) = scene.with_parameters(&[(&p.path.value, v)]) {
                         return Err(at(
-                            line(&p.distribution),
-                            format!("{field}.distribution"),
+                            spec_line,
+                            spec_field.clone(),
                             format!("its support reaches {v}{}, which the scene refuses ({e}); narrow or truncate it to values the scene accepts", dim.filter(|d| *d != Dim::NONE).map(|d| format!(" {}", d.si_unit())).unwrap_or_default()),
                         ));
                     }

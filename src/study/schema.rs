@@ -60,7 +60,27 @@ pub struct ReliabilitySpec {
 pub struct ParameterSpec {
     /// Scene parameter path, e.g. `joints.J1.clearance`.
     pub path: Name,
-    pub distribution: Spanned<DistributionSpec>,
+    pub distribution: Option<Spanned<DistributionSpec>>,
+    /// The parameter as a drawing states it (instead of `distribution`).
+    pub tolerance: Option<Spanned<ToleranceSpec>>,
+}
+
+/// A nominal value with its tolerance band and process capability:
+/// `{ nominal: 55 mm, plus_minus: 0.05 mm, cp: 1.33 }` or
+/// `{ nominal: 55 mm, plus: 0.05 mm, minus: 0.02 mm }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToleranceSpec {
+    pub nominal: Q,
+    /// A symmetric band ±t.
+    pub plus_minus: Option<Q>,
+    /// An asymmetric band [nominal − minus, nominal + plus].
+    pub plus: Option<Q>,
+    pub minus: Option<Q>,
+    /// Process capability Cp (default 1): σ = band width / (6 Cp).
+    pub cp: Option<Spanned<f64>>,
+    /// `normal` (default, centred on the band) or `uniform` (over the band).
+    pub distribution: Option<Name>,
 }
 
 #[derive(Debug, Deserialize)]
