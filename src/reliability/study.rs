@@ -12,7 +12,6 @@ use crate::study::merge::collect;
 use crate::study::runner::{self, RunOptions};
 use crate::study::store::{self, Row};
 use crate::study::{FailedSamples, RareEvent, Study};
-
 use anyhow::{bail, Context, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
