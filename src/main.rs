@@ -244,13 +244,13 @@ fn main() -> std::process::ExitCode {
                 },
             }
         }
-        Command::Merge { out, .. } if rare_event_dir(out) => {
+        Command::Merge { out, .. } if mc_study::reliability::study::is_rare_event_dir(out) => {
             mc_study::reliability::study::merge(out).map(|(f, study)| {
                 print!("{}", mc_study::reliability::study::describe(&f, &study));
                 eprintln!("results: {}", f.results.display());
             })
         }
-        Command::Status { out, .. } if rare_event_dir(out) => {
+        Command::Status { out, .. } if mc_study::reliability::study::is_rare_event_dir(out) => {
             mc_study::reliability::study::status(out).map(|s| print!("{s}"))
         }
         Command::Merge { out, allow_partial } => merge(out, *allow_partial).map(|m| {
@@ -348,9 +348,4 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::from(2)
         }
     }
-}
-
-/// A result directory of a rare-event study (its rows carry batches and levels).
-fn rare_event_dir(out: &std::path::Path) -> bool {
-    mc_study::study::manifest::Manifest::load(out).is_ok_and(|m| m.columns.tagged)
 }

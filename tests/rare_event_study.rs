@@ -43,17 +43,9 @@ fn finished(e: Ended) -> Finished {
     }
 }
 
-/// The stored rows with the wall time zeroed.
+/// The rows of `out`'s results with the wall time zeroed.
 fn rows(out: &Path) -> Vec<store::Row> {
-    store::read(&out.join("results.parquet"))
-        .unwrap()
-        .rows
-        .into_iter()
-        .map(|mut r| {
-            r.diagnostics.wall_ms = 0.0;
-            r
-        })
-        .collect()
+    common::stored_rows(&out.join("results.parquet"))
 }
 
 #[test]

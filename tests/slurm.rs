@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::{scratch, study_path};
+use common::{scratch, stored_rows as rows, study_path};
 use mc_study::study::merge::merge;
 use mc_study::study::runner::{run, RunOptions};
-use mc_study::study::store::{self, Row};
+use mc_study::study::store;
 use mc_study::study::Study;
 use std::path::Path;
 use std::process::Command;
@@ -40,18 +40,6 @@ fn wait_gone(jobs: &[&str], deadline: Instant) {
         assert!(Instant::now() < deadline, "jobs still queued:\n{q}");
         std::thread::sleep(Duration::from_millis(250));
     }
-}
-
-fn rows(path: &Path) -> Vec<Row> {
-    store::read(path)
-        .unwrap()
-        .rows
-        .into_iter()
-        .map(|mut r| {
-            r.diagnostics.wall_ms = 0.0;
-            r
-        })
-        .collect()
 }
 
 fn parts_of(out: &Path, label: &str) -> Vec<std::path::PathBuf> {

@@ -21,8 +21,6 @@ pub struct ImportanceSettings {
     /// The stage gives up once reaching the target would take more simulations than this
     /// (projected from the CoV so far, which falls as 1/√n).
     pub patience: u64,
-    /// A failure domain needing more components than this is left to subset simulation.
-    pub max_components: usize,
     pub seed: u64,
 }
 
@@ -33,8 +31,9 @@ pub struct Component {
     pub weight: f64,
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct ImportanceResult {
+/// What the estimate stage found: its figures, and the density of its last round.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ImportanceFigures {
     pub probability: f64,
     pub cov: f64,
     pub simulations: u64,
@@ -45,8 +44,12 @@ pub struct ImportanceResult {
     pub ess: f64,
     /// The largest failing weight's share of their sum.
     pub largest_share: f64,
-    /// The density of the last round.
     pub components: Vec<Component>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImportanceResult {
+    pub figures: ImportanceFigures,
     /// The simulations the target would have taken, when the stage gave up on it.
     pub gave_up: Option<u64>,
     /// Every sample with its weight (0 for a non-failing one), for the design point.
@@ -403,18 +406,20 @@ pub fn run(
     let rounds = PILOT_ROUNDS + (samples.len() / s.batch) as u64;
     pilot.extend(samples);
     Ok(ImportanceResult {
-        probability: p,
-        cov,
-        simulations: cursor.simulations() - start,
-        rounds,
-        failures: weights.len() as u64,
-        ess: if sq > 0.0 { sum * sum / sq } else { 0.0 },
-        largest_share: if sum > 0.0 {
-            weights.iter().copied().fold(0.0, f64::max) / sum
-        } else {
-            0.0
+        figures: ImportanceFigures {
+            probability: p,
+            cov,
+            simulations: cursor.simulations() - start,
+            rounds,
+            failures: weights.len() as u64,
+            ess: if sq > 0.0 { sum * sum / sq } else { 0.0 },
+            largest_share: if sum > 0.0 {
+                weights.iter().copied().fold(0.0, f64::max) / sum
+            } else {
+                0.0
+            },
+            components: mixture,
         },
-        components: mixture,
         gave_up,
         samples: pilot,
     })

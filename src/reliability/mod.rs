@@ -15,7 +15,7 @@ pub mod study;
 pub mod subset;
 
 use batch::{Cursor, Margins, Request, Stage};
-use importance::{Component, ImportanceSettings};
+use importance::{ImportanceFigures, ImportanceSettings};
 use subset::{Level, SubsetSettings};
 
 /// Which estimator a reliability study runs.
@@ -108,17 +108,11 @@ pub struct SubsetSummary {
     pub levels: Vec<Level>,
 }
 
-/// The importance stage's figures, or why it did not run.
+/// The importance stage's figures, and how far it lies from subset simulation's.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ImportanceSummary {
-    pub probability: f64,
-    pub cov: f64,
-    pub simulations: u64,
-    pub rounds: u64,
-    pub failures: u64,
-    pub ess: f64,
-    pub largest_share: f64,
-    pub components: Vec<Component>,
+    #[serde(flatten)]
+    pub figures: ImportanceFigures,
     /// |ln P_IS − ln P_subset| over their combined log-scale standard deviation, the subset
     /// one at its upper bound (levels fully correlated).
     pub disagreement: f64,
@@ -176,11 +170,13 @@ pub fn interval(p: f64, cov: f64) -> (f64, f64) {
     if p.is_nan() || p <= 0.0 || !cov.is_finite() {
         return (0.0, if p > 0.0 { 1.0 } else { 0.0 });
     }
-    let s = (1.0 + cov * cov).ln().sqrt();
+    let s = log_sd(cov);
     let z = normal::quantile(0.975);
     (p * (-z * s).exp(), (p * (z * s).exp()).min(1.0))
 }
 
+/// The standard deviation of ln P̂ for a lognormal estimate with coefficient of variation
+/// `cov`.
 fn log_sd(cov: f64) -> f64 {
     (1.0 + cov * cov).ln().sqrt()
 }
@@ -249,7 +245,9 @@ fn subset_then_importance(
         notes.push(why.clone());
     } else if s.importance && sus.cov > s.target_cov {
         let failures: Vec<_> = sus
-            .last_level
+            .all_levels
+            .last()
+            .expect("level 0 at least")
             .iter()
             .filter(|x| x.g <= 0.0)
             .cloned()
@@ -264,13 +262,16 @@ fn subset_then_importance(
                     .into(),
             ),
             Ok(mixture) => {
-                let r = importance::run(
+                let importance::ImportanceResult {
+                    figures: r,
+                    gave_up,
+                    samples,
+                } = importance::run(
                     &ImportanceSettings {
                         batch: s.level_samples,
                         target_cov: s.target_cov,
                         max_simulations: budget,
                         patience: 10 * sus.simulations,
-                        max_components: s.max_components,
                         seed: s.seed,
                     },
                     mixture,
@@ -282,7 +283,7 @@ fn subset_then_importance(
                 } else {
                     f64::INFINITY
                 };
-                let overruled = if let Some(n) = r.gave_up {
+                let overruled = if let Some(n) = gave_up {
                     Some(format!(
                         "it stopped after {} simulations: at its CoV of {:.3} the target would take about {n} (the sampling density fits the failure domain poorly)",
                         r.simulations, r.cov
@@ -314,17 +315,10 @@ fn subset_then_importance(
                     None => chosen = (r.probability, r.cov, Stage::Importance),
                 }
                 importance = Some(ImportanceSummary {
-                    probability: r.probability,
-                    cov: r.cov,
-                    simulations: r.simulations,
-                    rounds: r.rounds,
-                    failures: r.failures,
-                    ess: r.ess,
-                    largest_share: r.largest_share,
-                    components: r.components.clone(),
+                    figures: r,
                     disagreement: z,
                 });
-                is_samples = r.samples;
+                is_samples = samples;
             }
         }
     }

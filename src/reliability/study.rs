@@ -198,9 +198,30 @@ fn stored_rows(study: &Study, out: &Path) -> Result<HashMap<u64, Row>> {
     Ok(table.rows.into_iter().map(|r| (r.id, r)).collect())
 }
 
+/// Whether `out` holds a rare-event study's results (its rows carry batches and levels).
+pub fn is_rare_event_dir(out: &Path) -> bool {
+    Manifest::load(out).is_ok_and(|m| m.columns.tagged)
+}
+
+/// The study stored with the results in `out`, and its rows by id, read once.
+pub fn load(out: &Path) -> Result<(Study, HashMap<u64, Row>)> {
+    let (manifest, table) = collect(out)?;
+    let study = crate::study::merge::stored_study(&manifest, &table)?;
+    Ok((study, table.rows.into_iter().map(|r| (r.id, r)).collect()))
+}
+
 /// The algorithm replayed on the rows stored in `out`: the estimate when the study is
 /// done, or the batch it needs next.
 pub fn replay<'a>(study: &'a Study, out: &Path) -> Result<(Progress, Stored<'a>)> {
+    replay_rows(study, stored_rows(study, out)?, out)
+}
+
+/// The algorithm replayed on `rows`, the rows stored in `out`.
+pub fn replay_rows<'a>(
+    study: &'a Study,
+    rows: HashMap<u64, Row>,
+    out: &Path,
+) -> Result<(Progress, Stored<'a>)> {
     let rare = study
         .reliability
         .as_ref()
@@ -209,7 +230,7 @@ pub fn replay<'a>(study: &'a Study, out: &Path) -> Result<(Progress, Stored<'a>)
     let mut stored = Stored {
         study,
         rare,
-        rows: stored_rows(study, out)?,
+        rows,
         scales: None,
         points: HashMap::new(),
         error: None,
@@ -390,6 +411,15 @@ fn number(x: f64) -> String {
     }
 }
 
+/// A unit as the printout shows it: "1" (a pure number) is left out.
+fn shown(unit: &str) -> &str {
+    if unit == "1" {
+        ""
+    } else {
+        unit
+    }
+}
+
 /// The printout of a finished rare-event study.
 pub fn describe(f: &Finished, study: &Study) -> String {
     let e = &f.estimate;
@@ -438,7 +468,7 @@ pub fn describe(f: &Finished, study: &Study) -> String {
             sub.simulations
         );
     }
-    if let Some(is) = &e.importance {
+    if let Some(is) = e.importance.as_ref().map(|i| &i.figures) {
         t += &format!(
             "  importance sampling: {:.3e} (CoV {:.3}), {} simulations, effective sample size {:.0}\n",
             is.probability, is.cov, is.simulations, is.ess
@@ -446,22 +476,13 @@ pub fn describe(f: &Finished, study: &Study) -> String {
     }
     if let Some(p) = &s.most_probable_failure {
         t += &format!("  most probable failure (run {}):\n", p.run);
-        for (name, x, u) in &p.inputs {
-            let unit = study
-                .parameters
-                .iter()
-                .find(|q| &q.path == name)
-                .map_or("", |q| q.unit.as_str());
-            let unit = if unit == "1" { "" } else { unit };
+        // inputs and outputs are listed in the study's order
+        for ((name, x, u), q) in p.inputs.iter().zip(&study.parameters) {
+            let unit = shown(&q.unit);
             t += &format!("    {name} = {} {unit} ({u:+.2} σ)\n", number(*x));
         }
-        for (name, y) in &p.outputs {
-            let unit = study
-                .outputs
-                .iter()
-                .find(|o| &o.name == name)
-                .map_or("", |o| o.unit.as_str());
-            let unit = if unit == "1" { "" } else { unit };
+        for ((name, y), o) in p.outputs.iter().zip(&study.outputs) {
+            let unit = shown(&o.unit);
             t += &format!("    → {name} = {} {unit}\n", number(*y));
         }
     }
@@ -474,9 +495,8 @@ pub fn describe(f: &Finished, study: &Study) -> String {
 /// `mc-study merge` of a rare-event study: writes `results.parquet` and `summary.json` if
 /// the last batch is done.
 pub fn merge(out: &Path) -> Result<(Finished, Study)> {
-    let (manifest, table) = collect(out)?;
-    let study = crate::study::merge::stored_study(&manifest, &table)?;
-    match replay(&study, out)? {
+    let (study, rows) = load(out)?;
+    match replay_rows(&study, rows, out)? {
         (Progress::Done(e), stored) => match finish(&study, *e, stored, out)? {
             Ended::Done(f) => Ok((*f, study.clone())),
             _ => unreachable!("finish ends a study"),
@@ -493,9 +513,8 @@ pub fn merge(out: &Path) -> Result<(Finished, Study)> {
 
 /// `mc-study status` of a rare-event study: the runs stored, and the batch under way.
 pub fn status(out: &Path) -> Result<String> {
-    let (manifest, table) = collect(out)?;
-    let study = crate::study::merge::stored_study(&manifest, &table)?;
-    let (progress, stored) = replay(&study, out)?;
+    let (study, rows) = load(out)?;
+    let (progress, stored) = replay_rows(&study, rows, out)?;
     let mut t = format!(
         "rare-event study {} ({} method, {} samples per level, at most {} runs): {} runs stored\n",
         study.name,

@@ -68,9 +68,8 @@ pub struct SubsetResult {
     pub cov_upper: f64,
     pub levels: Vec<Level>,
     pub simulations: u64,
-    /// The last level's samples, chain by chain (the failing ones fit the importance
-    /// density), and every level's, for the tail curve.
-    pub last_level: Vec<Sample>,
+    /// Every level's samples, chain by chain: the last level's failing ones fit the
+    /// importance density, and all of them give the tail curve.
     pub all_levels: Vec<Vec<Sample>>,
     /// Why the search stopped before reaching the failure domain, if it did.
     pub incomplete: Option<String>,
@@ -265,7 +264,6 @@ pub fn run(s: &SubsetSettings, d: usize, cursor: &mut Cursor) -> Result<SubsetRe
         cov_upper,
         levels,
         simulations: cursor.simulations() - start,
-        last_level: samples,
         all_levels,
         incomplete,
     })

@@ -8,15 +8,15 @@ use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
 const SIZE: (u32, u32) = (720, 440);
-const FONT: &str = "sans-serif";
+pub(super) const FONT: &str = "sans-serif";
 /// Text sizes in pixels of the 720 × 440 figure, which the page shows 580 wide: plotters
 /// draws a size-s font at s/1.24 px, so the tick labels read at about 11 px on the page.
-const TITLE: f64 = 22.0;
-const AXIS: f64 = 19.0;
+pub(super) const TITLE: f64 = 22.0;
+pub(super) const AXIS: f64 = 19.0;
 const TICKS: f64 = 17.0;
-const SMALL: f64 = 16.0;
-const BLUE: RGBColor = RGBColor(43, 76, 126);
-const ORANGE: RGBColor = RGBColor(221, 132, 82);
+pub(super) const SMALL: f64 = 16.0;
+pub(super) const BLUE: RGBColor = RGBColor(43, 76, 126);
+pub(super) const ORANGE: RGBColor = RGBColor(221, 132, 82);
 const GREY: RGBColor = RGBColor(120, 120, 120);
 
 /// Registers the embedded font for the bitmap backend (once per process).
@@ -58,7 +58,8 @@ fn padded(lo: f64, hi: f64) -> (f64, f64) {
     }
 }
 
-type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+pub(super) type DrawResult<DB> =
+    Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 /// A figure that draws on any plotters backend.
 pub trait Figure {

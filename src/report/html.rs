@@ -7,7 +7,7 @@ use crate::study::store::{META_SCENE, META_STUDY, META_VERSION};
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
-fn esc(s: &str) -> String {
+pub(super) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -26,14 +26,14 @@ fn yaml_block(text: &str, key: &str) -> Option<String> {
 }
 
 /// The SVG text of a figure, without an XML declaration, for inlining.
-fn inline_svg(f: &FigureFile) -> Result<String> {
+pub(super) fn inline_svg(f: &FigureFile) -> Result<String> {
     let text =
         std::fs::read_to_string(&f.svg).with_context(|| format!("reading {}", f.svg.display()))?;
     let start = text.find("<svg").unwrap_or(0);
     Ok(text[start..].to_string())
 }
 
-const STYLE: &str =
+pub(super) const STYLE: &str =
     "body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#111;line-height:1.4}
 h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ccc}
 table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0}

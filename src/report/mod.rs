@@ -367,7 +367,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
 
 /// Builds the report of the result directory `out`.
 pub fn build(out: &Path) -> Result<Report> {
-    if crate::study::manifest::Manifest::load(out).is_ok_and(|m| m.columns.tagged) {
+    if crate::reliability::study::is_rare_event_dir(out) {
         return rare_event::build(out);
     }
     let data = analyse(out)?;

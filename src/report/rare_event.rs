@@ -3,23 +3,17 @@
 //! and how far each input moved to reach it, the subset levels, and how many simulations
 //! each stage took.
 
-use super::figures::{save, Figure};
+use super::figures::{save, DrawResult, Figure, AXIS, BLUE, FONT, ORANGE, SMALL, TITLE};
+use super::html::{esc, inline_svg, STYLE};
 use super::FigureFile;
-use crate::reliability::study::{replay, summarise, RareEventSummary};
-use crate::reliability::{Estimate, Progress};
-use crate::study::merge::{collect, stored_study};
+use crate::reliability::study::{load, replay_rows, summarise, RareEventSummary};
+use crate::reliability::{Estimate, ImportanceSummary, Progress};
 use anyhow::{bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::fmt::Write;
 use std::path::Path;
-
-const FONT: &str = "sans-serif";
-const BLUE: RGBColor = RGBColor(43, 76, 126);
-const ORANGE: RGBColor = RGBColor(221, 132, 82);
-
-type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 /// P(margin ≤ m) against m, log probability, with the estimate and its 95 % interval at
 /// m = 0.
@@ -54,7 +48,7 @@ impl Figure for TailFigure<'_> {
             .fold(e.interval.0.max(1e-12), f64::min)
             / 3.0;
         let mut chart = ChartBuilder::on(area)
-            .caption("P(margin ≤ m)", (FONT, 22.0))
+            .caption("P(margin ≤ m)", (FONT, TITLE))
             .margin(12)
             .x_label_area_size(52)
             .y_label_area_size(88)
@@ -64,8 +58,8 @@ impl Figure for TailFigure<'_> {
             .x_desc("margin m (output's distance to its limit, in its standard deviations)")
             .y_desc("probability")
             .y_label_formatter(&|y| format!("{y:.0e}"))
-            .label_style((FONT, 16.0))
-            .axis_desc_style((FONT, 18.0))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         let outline: Vec<(f64, f64)> = band
             .iter()
@@ -108,7 +102,7 @@ impl Figure for TailFigure<'_> {
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
-            .label_font((FONT, 16.0))
+            .label_font((FONT, SMALL))
             .position(SeriesLabelPosition::LowerRight)
             .draw()?;
         Ok(())
@@ -127,7 +121,7 @@ impl Figure for ShiftFigure<'_> {
         let top = self.shifts.iter().map(|s| s.1.abs()).fold(1.0, f64::max) * 1.15;
         let n = self.shifts.len();
         let mut chart = ChartBuilder::on(area)
-            .caption("Inputs at the most probable failure", (FONT, 22.0))
+            .caption("Inputs at the most probable failure", (FONT, TITLE))
             .margin(12)
             .x_label_area_size(52)
             .y_label_area_size(10)
@@ -137,8 +131,8 @@ impl Figure for ShiftFigure<'_> {
             .disable_y_mesh()
             .disable_y_axis()
             .x_desc("shift from the median [σ]")
-            .label_style((FONT, 15.0))
-            .axis_desc_style((FONT, 18.0))
+            .label_style((FONT, SMALL))
+            .axis_desc_style((FONT, AXIS))
             .draw()?;
         chart.draw_series(self.shifts.iter().enumerate().map(|(k, (_, u))| {
             let y = (n - 1 - k) as f64;
@@ -152,7 +146,7 @@ impl Figure for ShiftFigure<'_> {
             Text::new(
                 name.clone(),
                 (x, y),
-                (FONT, 15.0)
+                (FONT, SMALL)
                     .into_font()
                     .into_text_style(area)
                     .pos(Pos::new(pos, VPos::Center)),
@@ -162,18 +156,12 @@ impl Figure for ShiftFigure<'_> {
     }
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
 fn page(summary: &RareEventSummary, figures: &[FigureFile], study_yaml: &str) -> Result<String> {
     let e = &summary.estimate;
     let mut s = String::new();
     writeln!(
         s,
-        "<!doctype html><html><head><meta charset=\"utf-8\"><title>{0} — rare event</title><style>body{{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#111;line-height:1.4}}table{{border-collapse:collapse;font-size:0.85em}}td,th{{border:1px solid #ccc;padding:3px 6px;text-align:right}}th{{background:#eef}}td:first-child,th:first-child{{text-align:left}}pre{{background:#f6f6f6;padding:0.6em}}.figs{{display:flex;flex-wrap:wrap;gap:12px}}.figs figure{{margin:0;width:580px}}.figs svg{{width:100%;height:auto;border:1px solid #ddd}}.note{{border-left:4px solid #c60;padding:0.3em 0.8em;background:#fff6ec}}</style></head><body><h1>{0}: rare event</h1>",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{0} — rare event</title><style>{STYLE}</style></head><body><h1>{0}: rare event</h1>",
         esc(&summary.study)
     )?;
     let event: Vec<String> = summary
@@ -227,17 +215,14 @@ fn page(summary: &RareEventSummary, figures: &[FigureFile], study_yaml: &str) ->
     )?;
     writeln!(s, "</table>")?;
     for n in &e.notes {
-        writeln!(s, "<p class=\"note\">{}</p>", esc(n))?;
+        writeln!(s, "<p class=\"caution\">{}</p>", esc(n))?;
     }
     writeln!(s, "<div class=\"figs\">")?;
     for f in figures {
-        let text = std::fs::read_to_string(&f.svg)
-            .with_context(|| format!("reading {}", f.svg.display()))?;
-        let start = text.find("<svg").unwrap_or(0);
         writeln!(
             s,
             "<figure>{}<figcaption>{}</figcaption></figure>",
-            &text[start..],
+            inline_svg(f)?,
             esc(&f.title)
         )?;
     }
@@ -271,8 +256,12 @@ fn page(summary: &RareEventSummary, figures: &[FigureFile], study_yaml: &str) ->
         }
         writeln!(s, "</table>")?;
     }
-    if let Some(is) = &e.importance {
-        writeln!(s, "<h2>Importance sampling: {:.3e} (CoV {:.3})</h2><p>{} simulations in {} rounds, {} failing; effective sample size {:.0}; the largest weight carries {:.1} % of the estimate; {:.1} combined standard deviations from subset simulation.</p>", is.probability, is.cov, is.simulations, is.rounds, is.failures, is.ess, 100.0 * is.largest_share, is.disagreement)?;
+    if let Some(ImportanceSummary {
+        figures: is,
+        disagreement,
+    }) = &e.importance
+    {
+        writeln!(s, "<h2>Importance sampling: {:.3e} (CoV {:.3})</h2><p>{} simulations in {} rounds, {} failing; effective sample size {:.0}; the largest weight carries {:.1} % of the estimate; {:.1} combined standard deviations from subset simulation.</p>", is.probability, is.cov, is.simulations, is.rounds, is.failures, is.ess, 100.0 * is.largest_share, disagreement)?;
     }
     writeln!(
         s,
@@ -284,9 +273,8 @@ fn page(summary: &RareEventSummary, figures: &[FigureFile], study_yaml: &str) ->
 
 /// Builds `OUT/report/report.html` for a finished rare-event study.
 pub fn build(out: &Path) -> Result<super::Report> {
-    let (manifest, table) = collect(out)?;
-    let study = stored_study(&manifest, &table)?;
-    let (progress, stored) = replay(&study, out)?;
+    let (study, rows) = load(out)?;
+    let (progress, stored) = replay_rows(&study, rows, out)?;
     let Progress::Done(estimate) = progress else {
         bail!(
             "the rare-event study in {} is not finished: rerun `mc-study run` on it to go on",

@@ -64,3 +64,17 @@ pub fn floor_obj() -> String {
     }
     s
 }
+
+/// The rows of a results or part file, with the wall time (the one column that differs
+/// between identical runs) zeroed.
+pub fn stored_rows(path: &Path) -> Vec<mc_study::study::store::Row> {
+    mc_study::study::store::read(path)
+        .unwrap()
+        .rows
+        .into_iter()
+        .map(|mut r| {
+            r.diagnostics.wall_ms = 0.0;
+            r
+        })
+        .collect()
+}
