@@ -23,4 +23,5 @@ pub mod scene;
 pub mod simulate;
 pub mod solver;
 pub mod study;
+pub mod tolerancing;
 pub mod trajectory;

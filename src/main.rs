@@ -3,7 +3,8 @@
 
 use clap::{Parser, Subcommand};
 use mc_study::commands::{
-    converge, run, simulate_command, slurm, ConvergeArgs, RunArgs, SimulateArgs,
+    allocate, converge, run, simulate_command, slurm, worst_case, AllocateArgs, ConvergeArgs,
+    RunArgs, SimulateArgs, WorstCaseArgs,
 };
 use mc_study::scene::Scene;
 use mc_study::study::merge::{merge, status};
@@ -162,6 +163,23 @@ enum Command {
         #[arg(long)]
         submit: bool,
     },
+    /// Searches each output's smallest and largest value over the box of the tolerances
+    /// (a `tolerance`'s band, a bounded distribution's support, or ±3σ): the centre and
+    /// every corner (all of them up to 12 inputs), then a compass search from the best
+    /// ones, since a mechanism's extreme need not be at a corner. Runs go in parallel into
+    /// <results>/worst-case/ (resumable). Prints the extremes and the inputs that reach
+    /// them, and beside the study's results: the linear worst case, the RSS prediction
+    /// (mean ± 3σ, with R²), the Monte-Carlo range, which break the limits, and each
+    /// input's share of the variance (docs/tolerancing.md).
+    WorstCase(WorstCaseArgs),
+    /// Tolerance allocation: the tolerance widths of least total cost (each parameter's
+    /// `cost`, default 1/t) under which every output with limits reaches the study's
+    /// `allocation` target (Cpk, or ppm through the normal model). Starts from the study's
+    /// results (running it first if needed), reweights them to try tolerances without new
+    /// runs, confirms each allocation with a study in <results>/allocation/round-N, and
+    /// writes the allocated study beside the study file (STUDY.allocated.yaml). Exit
+    /// status 3 when the target cannot be met.
+    Allocate(AllocateArgs),
     /// Lists every parameter path of a scene (the numbers a study or `--set` can vary),
     /// with its unit and its value in the scene ("default" where the scene leaves it out).
     Paths {
@@ -244,6 +262,16 @@ fn main() -> std::process::ExitCode {
                 },
             }
         }
+        Command::WorstCase(args) => match worst_case(args) {
+            Ok(None) => Ok(()),
+            Ok(Some(status)) => return std::process::ExitCode::from(status),
+            Err(e) => Err(e),
+        },
+        Command::Allocate(args) => match allocate(args) {
+            Ok(None) => Ok(()),
+            Ok(Some(status)) => return std::process::ExitCode::from(status),
+            Err(e) => Err(e),
+        },
         Command::Merge { out, .. } if mc_study::reliability::study::is_rare_event_dir(out) => {
             mc_study::reliability::study::merge(out).map(|(f, study)| {
                 print!("{}", mc_study::reliability::study::describe(&f, &study));

@@ -2,15 +2,19 @@
 //! work through the library and prints what the user reads. `main.rs` holds only the
 //! argument definitions and the dispatch.
 
+mod allocate;
 mod converge;
 mod run;
 mod simulate;
 mod slurm;
+mod worst_case;
 
+pub use allocate::{allocate, AllocateArgs};
 pub use converge::{converge, ConvergeArgs};
 pub use run::{run, RunArgs};
 pub use simulate::{simulate_command, SimulateArgs};
 pub use slurm::slurm;
+pub use worst_case::{worst_case, WorstCaseArgs};
 
 use anyhow::{bail, Context, Result};
 

@@ -200,7 +200,7 @@ fn stored_rows(study: &Study, out: &Path) -> Result<HashMap<u64, Row>> {
 
 /// Whether `out` holds a rare-event study's results (its rows carry batches and levels).
 pub fn is_rare_event_dir(out: &Path) -> bool {
-    Manifest::load(out).is_ok_and(|m| m.columns.tagged)
+    Manifest::load(out).is_ok_and(|m| m.columns.tagged && m.design == "random")
 }
 
 /// The study stored with the results in `out`, and its rows by id, read once.

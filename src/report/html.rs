@@ -46,6 +46,56 @@ figcaption{font-size:0.8em;color:#444}
 .meta td{text-align:left}
 .caution{border-left:4px solid #c60;padding:0.3em 0.8em;background:#fff6ec}";
 
+/// Worst case, linear worst case, RSS and Monte Carlo side by side, per output.
+fn tolerance_table(data: &Data) -> String {
+    let mut s = String::new();
+    if data
+        .tolerances
+        .iter()
+        .all(|c| c.stack_up.is_none() && c.worst_case.is_none())
+    {
+        return s;
+    }
+    let _ = writeln!(s, "<h2>Worst case, RSS and Monte Carlo</h2><p>Worst case: the searched extremes over the tolerance box ({}). Linear: the stack-up's extremes over the same box. RSS: the stack-up's mean ± 3σ, from a regression on this study's samples; R² below 0.9 means the output is not linear enough to trust it. Monte Carlo: the sample's range, and its 0.135 % and 99.865 % quantiles. A range outside the limits is <b>marked</b>.</p>",
+        if data.worst_case.is_some() { "<code>mc-study worst-case</code>" } else { "not searched yet: run <code>mc-study worst-case STUDY</code>" });
+    let _ = writeln!(s, "<table><tr><th>output</th><th>limits</th><th>worst case</th><th>linear worst case</th><th>RSS ± 3σ</th><th>R²</th><th>Monte-Carlo min–max</th><th>Monte-Carlo 0.135–99.865 %</th></tr>");
+    for c in &data.tolerances {
+        let Some(o) = data.summary.output(&c.output) else {
+            continue;
+        };
+        let range = |r: Option<(f64, f64)>| match r {
+            None => "–".to_string(),
+            Some((a, b)) => {
+                let t = format!("[{}, {}]", o.show(a), o.show(b));
+                if c.breaks((a, b)) {
+                    format!("<b>{t}</b>")
+                } else {
+                    t
+                }
+            }
+        };
+        let limits = format!(
+            "[{}, {}]",
+            c.lower.map_or("−∞".into(), |v| o.show(v)),
+            c.upper.map_or("∞".into(), |v| o.show(v))
+        );
+        let _ = writeln!(
+            s,
+            "<tr><td>{} [{}]</td><td>{limits}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&c.output),
+            esc(&o.display_unit),
+            range(c.worst_case),
+            range(c.stack_up.as_ref().map(|st| st.linear_worst_case)),
+            range(c.rss()),
+            c.stack_up.as_ref().map_or("–".into(), |st| format!("{:.3}", st.r2)),
+            range(c.monte_carlo.map(|m| (m[0], m[1]))),
+            range(c.monte_carlo.map(|m| (m[2], m[3]))),
+        );
+    }
+    let _ = writeln!(s, "</table>");
+    s
+}
+
 pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     let t = &data.table;
     let m = &data.manifest;
@@ -116,6 +166,29 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             esc(&fidelity.join("\n"))
         }
     );
+
+    if !data.summary.inputs.is_empty() {
+        let _ = writeln!(
+            s,
+            "<h2>Inputs</h2><table><tr><th>parameter</th><th>as stated</th></tr>"
+        );
+        for i in &data.summary.inputs {
+            let _ = writeln!(
+                s,
+                "<tr><td>{}</td><td>{}</td></tr>",
+                esc(&i.name),
+                esc(&i.stated)
+            );
+        }
+        let _ = writeln!(s, "</table>");
+        if let Some(c) = yaml_block(&study_yaml, "correlations") {
+            let _ = writeln!(
+                s,
+                "<p>Correlated through a Gaussian copula:</p><pre>{}</pre>",
+                esc(&c)
+            );
+        }
+    }
 
     // summary table, each output in its display unit
     let _ = writeln!(s, "<h2>Summary</h2><table><tr><th>output</th><th>unit</th><th>n</th><th>failed</th><th>mean</th><th>95 % CI of mean</th><th>σ</th><th>min</th><th>1 %</th><th>5 %</th><th>50 %</th><th>95 %</th><th>99 %</th><th>max</th><th>out of spec (Wilson 95 %)</th><th>Cp / Cpk</th></tr>");
@@ -210,10 +283,26 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         if let Some((c, r2)) = &sens.srrc {
             row("SRRC", c.iter().map(fmt).collect(), format!("{r2:.3}"));
         }
+        let e = |x: &crate::study::sensitivity::Estimate| {
+            format!("{:.3} [{:.3}, {:.3}]", x.value, x.ci95.0, x.ci95.1)
+        };
+        if let Some(f) = &sens.first_order {
+            row(
+                "S (rank, from the samples)",
+                f.iter().map(e).collect(),
+                String::new(),
+            );
+        }
+        if let Some(h) = &sens.hsic {
+            row(
+                "HSIC R² (p)",
+                h.iter()
+                    .map(|d| format!("{:.3} ({:.2})", d.r2, d.p_value))
+                    .collect(),
+                String::new(),
+            );
+        }
         if let Some(sob) = &sens.sobol {
-            let e = |x: &crate::study::sensitivity::Estimate| {
-                format!("{:.3} [{:.3}, {:.3}]", x.value, x.ci95.0, x.ci95.1)
-            };
             row("Sobol' S", sob.first.iter().map(e).collect(), String::new());
             row(
                 "Sobol' ST",
@@ -224,7 +313,10 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     }
     let _ = writeln!(s, "</table>");
 
+    s.push_str(&tolerance_table(data));
+
     for (section, title, intro) in [
+        ("tolerances", "Contributors", "Each input's share of the output's variance in the linear stack-up, largest first (a Pareto chart). Trust it where R² is near 1."),
         ("distributions", "Distributions", "Histogram with the fitted normal, the mean, mean ± 3σ and the specification limits; empirical CDF."),
         ("sensitivity", "Sensitivity figures", ""),
         ("scatter", "Outputs against inputs", ""),

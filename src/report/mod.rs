@@ -8,11 +8,14 @@ mod rare_event;
 
 use crate::scene::units::DisplayUnit;
 use crate::study::converge::Convergence;
+use crate::study::given_data::{dependence, first_order, Dependence};
 use crate::study::manifest::{Manifest, Ranges};
 use crate::study::merge::collect;
-use crate::study::sensitivity::{sobol_indices, src, srrc, Regression, SobolIndices};
+use crate::study::sensitivity::{sobol_indices, src, srrc, Estimate, Regression, SobolIndices};
 use crate::study::store::{self, Table};
 use crate::study::summary::Summary;
+use crate::tolerancing::table::{compare, Comparison};
+use crate::tolerancing::worst_case_run::{self, WorstCase};
 use anyhow::{bail, Context, Result};
 use figures::{
     save, BarSeries, BarsFigure, ConvergenceFigure, EcdfFigure, HistogramFigure,
@@ -57,6 +60,11 @@ pub struct OutputSensitivity {
     pub srrc: Option<(Vec<f64>, f64)>,
     /// With a Saltelli design.
     pub sobol: Option<SobolIndices>,
+    /// First-order indices from the samples of any other design (the rank estimator),
+    /// with their 95 % intervals.
+    pub first_order: Option<Vec<Estimate>>,
+    /// HSIC dependence per input.
+    pub hsic: Option<Vec<Dependence>>,
 }
 
 /// A figure of the report: its title, its section and its SVG file.
@@ -85,6 +93,9 @@ pub(crate) struct Data {
     pub summary: Summary,
     pub missing: Ranges,
     pub sensitivity: Vec<OutputSensitivity>,
+    /// Worst case, RSS and Monte Carlo per output.
+    pub tolerances: Vec<Comparison>,
+    pub worst_case: Option<WorstCase>,
 }
 
 fn column(table: &Table, f: impl Fn(&store::Row) -> f64) -> Vec<f64> {
@@ -92,6 +103,7 @@ fn column(table: &Table, f: impl Fn(&store::Row) -> f64) -> Vec<f64> {
 }
 
 fn analyse(out: &Path) -> Result<Data> {
+    crate::study::merge::refuse_search(out)?;
     let (manifest, table) = collect(out)?;
     if table.rows.is_empty() {
         bail!(
@@ -102,7 +114,8 @@ fn analyse(out: &Path) -> Result<Data> {
     let missing =
         Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
     let study = crate::study::merge::stored_study(&manifest, &table)?;
-    let summary = Summary::of(&manifest.study_name, &table, &study.outputs);
+    let summary =
+        Summary::of(&manifest.study_name, &table, &study.outputs).with_inputs(&study.parameters);
     let d = table.columns.inputs.len();
     let saltelli = manifest.design == "saltelli";
     // rows for the regressions: the independent points (A and B blocks of Saltelli)
@@ -134,10 +147,16 @@ fn analyse(out: &Path) -> Result<Data> {
                 src: to_pair(src(&xs, &y)),
                 srrc: to_pair(srrc(&xs, &y)),
                 sobol: sobol.flatten(),
+                first_order: (!saltelli).then(|| xs.iter().map(|x| first_order(x, &y)).collect()),
+                hsic: dependence(&xs, &y, BOOTSTRAP_SEED),
             }
         })
         .collect();
+    let worst_case = WorstCase::load(&worst_case_run::directory(out))?;
+    let tolerances = compare(&study, Some((&table, &summary)), worst_case.as_ref());
     Ok(Data {
+        tolerances,
+        worst_case,
         out: out.to_path_buf(),
         manifest,
         table,
@@ -297,6 +316,56 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
             out.push(FigureFile {
                 section: "sensitivity",
                 title: format!("{name}: SRC²"),
+                svg,
+            });
+        }
+        if let Some(est) = &sens.first_order {
+            let svg = save(
+                &BarsFigure {
+                    title: format!("{name}: first-order indices from the samples (rank estimator)"),
+                    y_desc: "S (95 % interval)".into(),
+                    inputs: inputs.clone(),
+                    series: vec![BarSeries {
+                        label: "first order S".into(),
+                        values: est.iter().map(|e| e.value).collect(),
+                        intervals: Some(est.iter().map(|e| e.ci95).collect()),
+                    }],
+                },
+                &dir.join(format!("first_order_{}", slug(name))),
+            )?;
+            out.push(FigureFile {
+                section: "sensitivity",
+                title: format!("{name}: first-order indices"),
+                svg,
+            });
+        }
+        if let Some(st) = data.tolerances.get(k).and_then(|c| c.stack_up.as_ref()) {
+            let mut order: Vec<usize> = (0..inputs.len()).collect();
+            order.sort_by(|&a, &b| st.contributions[b].total_cmp(&st.contributions[a]));
+            let svg = save(
+                &BarsFigure {
+                    title: format!(
+                        "{name}: contributors to the variance (RSS, R² = {:.3}{})",
+                        st.r2,
+                        if st.trusted() {
+                            ""
+                        } else {
+                            ", not linear enough to trust"
+                        }
+                    ),
+                    y_desc: "share of σ² [%]".into(),
+                    inputs: order.iter().map(|&j| inputs[j].clone()).collect(),
+                    series: vec![BarSeries {
+                        label: "contribution".into(),
+                        values: order.iter().map(|&j| st.contributions[j]).collect(),
+                        intervals: None,
+                    }],
+                },
+                &dir.join(format!("contributors_{}", slug(name))),
+            )?;
+            out.push(FigureFile {
+                section: "tolerances",
+                title: format!("{name}: contributors"),
                 svg,
             });
         }

@@ -160,6 +160,44 @@ impl Distribution {
         }
     }
 
+    /// P(X ≤ x).
+    pub fn cdf(&self, x: f64) -> f64 {
+        match *self {
+            Distribution::Normal { mean, sd } => phi((x - mean) / sd),
+            Distribution::TruncatedNormal {
+                mean,
+                sd,
+                lower,
+                upper,
+            } => {
+                let (a, b) = (phi((lower - mean) / sd), phi((upper - mean) / sd));
+                ((phi((x.clamp(lower, upper) - mean) / sd) - a) / (b - a)).clamp(0.0, 1.0)
+            }
+            Distribution::Uniform { lower, upper } => {
+                ((x - lower) / (upper - lower)).clamp(0.0, 1.0)
+            }
+            Distribution::Lognormal { mu, sigma } => {
+                if x <= 0.0 {
+                    0.0
+                } else {
+                    phi((x.ln() - mu) / sigma)
+                }
+            }
+            Distribution::Triangular { lower, mode, upper } => {
+                if x <= lower {
+                    0.0
+                } else if x >= upper {
+                    1.0
+                } else if x <= mode {
+                    (x - lower).powi(2) / ((upper - lower) * (mode - lower))
+                } else {
+                    1.0 - (upper - x).powi(2) / ((upper - lower) * (upper - mode))
+                }
+            }
+            Distribution::Fixed(v) => f64::from(u8::from(x >= v)),
+        }
+    }
+
     /// The value at standard-normal coordinate z: the Φ(z)-quantile, computed directly
     /// where the distribution is a transformed normal so that the far tails keep their
     /// precision.

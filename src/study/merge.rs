@@ -52,6 +52,18 @@ pub fn collect(out: &Path) -> Result<(Manifest, Table)> {
     ))
 }
 
+/// Refuses the directory of a worst-case search, which `merge`, `status` and `report` do
+/// not read: `mc-study worst-case` resumes and prints it.
+pub fn refuse_search(out: &Path) -> Result<()> {
+    if Manifest::load(out).is_ok_and(|m| m.design == "worst-case") {
+        bail!(
+            "{} holds the runs of a worst-case search: rerun `mc-study worst-case STUDY` to resume it and print the result (also in worst-case.json)",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// Two rows of one sample agree: every value bit for bit but the wall time.
 fn same_sample(a: &Row, b: &Row) -> bool {
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -109,6 +121,7 @@ pub struct Merged {
 /// Writes `OUT/results.parquet`, `OUT/summary.json`; refuses (unless `allow_partial`) when
 /// samples are missing and names them.
 pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
+    refuse_search(out)?;
     let (manifest, mut table) = collect(out)?;
     let missing =
         Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
@@ -128,7 +141,8 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
         .metadata
         .insert("mc_study.complete".into(), missing.is_empty().to_string());
     let study = stored_study(&manifest, &table)?;
-    let summary = Summary::of(&manifest.study_name, &table, &study.outputs);
+    let summary =
+        Summary::of(&manifest.study_name, &table, &study.outputs).with_inputs(&study.parameters);
     let path = out.join("results.parquet");
     let _dir = DirLock::acquire(out)?;
     // a slow merge of fewer parts must not replace the result of a later, fuller one
@@ -226,6 +240,7 @@ impl std::fmt::Display for StatusReport {
 
 /// The state of each shard of an `n`-way split (default: the latest run's).
 pub fn status(out: &Path, shards: Option<u64>) -> Result<StatusReport> {
+    refuse_search(out)?;
     let (manifest, table) = collect(out)?;
     let n = shards.unwrap_or(manifest.shards).max(1);
     let done = Ranges::from_ids(table.rows.iter().map(|r| r.id).collect());

@@ -3,8 +3,10 @@
 //! store, merging, and the summary statistics. See docs/studies.md.
 
 pub mod converge;
+pub mod copula;
 pub mod design;
 pub mod distribution;
+pub mod given_data;
 pub mod manifest;
 pub mod merge;
 pub mod runner;
@@ -17,12 +19,14 @@ pub mod stop_signals;
 pub mod store;
 pub mod subject;
 pub mod summary;
+pub mod tolerance;
 
 use crate::scene::document::integrator_paths;
 use crate::scene::error::line;
 use crate::scene::schema::{Name, Q};
 use crate::scene::units::{Dim, DisplayUnit};
 use crate::scene::{SceneError, Tuning};
+pub use copula::Copula;
 pub use design::{Design, DesignKind};
 pub use distribution::Distribution;
 use schema::{DistributionSpec, StudySpec, ToleranceSpec};
@@ -30,6 +34,7 @@ use serde_saphyr::Spanned;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 pub use subject::{Diagnostics, Outcome, Subject};
+pub use tolerance::{Cost, Drawing};
 
 /// An error in a study: in the study file itself (its file, line and field), in the scene
 /// the study names (the scene file's own line and field), or in a shard specification.
@@ -67,6 +72,10 @@ pub struct Parameter {
     pub distribution: Distribution,
     /// SI unit of the values ("m", "1"; empty for function inputs).
     pub unit: String,
+    /// The drawing's statement, for a parameter given as a `tolerance`.
+    pub drawing: Option<Drawing>,
+    /// The cost of its tolerance (tolerance allocation).
+    pub cost: Cost,
 }
 
 /// An output of the subject, with what the study says of it (its specification limits).
@@ -105,6 +114,34 @@ pub struct Study {
     pub suspect_fails: bool,
     /// A rare-event estimate instead of plain sampling (`reliability:`).
     pub reliability: Option<RareEvent>,
+    /// The dependence between the parameters (`correlations:`).
+    pub copula: Copula,
+    /// What `mc-study allocate` must meet (`allocation:`).
+    pub allocation: Option<AllocationTarget>,
+    /// For the runs of an adaptive search (the worst case) rather than of the design.
+    pub search: Option<Search>,
+}
+
+/// An adaptive search run as a study: its kind and the most runs it may take.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Search {
+    pub kind: &'static str,
+    pub runs: u64,
+}
+
+/// The `allocation:` block of a study, validated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AllocationTarget {
+    /// The smallest Cpk each output must reach (a ppm target converts to it through the
+    /// normal model).
+    pub cpk: f64,
+    /// The ppm the study asked for, if it did.
+    pub ppm: Option<f64>,
+    /// The outputs (indices into `Study::outputs`) the target applies to.
+    pub outputs: Vec<usize>,
+    /// The range of tolerance ratios t / t₀ allowed.
+    pub narrowest: f64,
+    pub widest: f64,
 }
 
 /// What a sample whose simulation failed counts as in a rare-event study.
@@ -250,7 +287,7 @@ fn tolerance(
     spec: &Spanned<ToleranceSpec>,
     dim: Option<Dim>,
     field: &str,
-) -> Result<Distribution, StudyError> {
+) -> Result<Drawing, StudyError> {
     let t = &spec.value;
     let f = |s: &str| format!("{field}.{s}");
     let finite = |x: &Q, name: &str| -> Result<f64, StudyError> {
@@ -304,9 +341,11 @@ fn tolerance(
                     format!("a process capability must be > 0, got {cp}"),
                 ));
             }
-            Ok(Distribution::Normal {
-                mean: nominal + 0.5 * (plus - minus),
-                sd: (plus + minus) / (6.0 * cp),
+            Ok(Drawing {
+                nominal,
+                plus,
+                minus,
+                cp: Some(cp),
             })
         }
         "uniform" => {
@@ -317,9 +356,11 @@ fn tolerance(
                     "a uniform tolerance has no process capability: drop `cp`",
                 ));
             }
-            Ok(Distribution::Uniform {
-                lower: nominal - minus,
-                upper: nominal + plus,
+            Ok(Drawing {
+                nominal,
+                plus,
+                minus,
+                cp: None,
             })
         }
         other => Err(at(
@@ -444,30 +485,39 @@ impl Study {
             let dim = subject
                 .parameter_dim(&p.path.value)
                 .map_err(|m| at(line(&p.path), format!("{field}.path"), m))?;
-            let (distribution, spec_line, spec_field) = match (&p.distribution, &p.tolerance) {
-                (Some(d), None) => {
-                    let f = format!("{field}.distribution");
-                    (distribution(d, dim, &f)?, line(d), f)
-                }
-                (None, Some(t)) => {
-                    let f = format!("{field}.tolerance");
-                    (tolerance(t, dim, &f)?, line(t), f)
-                }
-                (Some(_), Some(t)) => {
-                    return Err(at(
-                        line(t),
-                        format!("{field}.tolerance"),
-                        "give `distribution` or `tolerance`, not both",
-                    ))
-                }
-                (None, None) => {
-                    return Err(at(
-                        line(&p.path),
-                        field,
-                        "give a `distribution` or a `tolerance`",
-                    ))
-                }
-            };
+            if let (Some(c), None) = (&p.cost, &p.tolerance) {
+                return Err(at(
+                    line(c),
+                    format!("{field}.cost"),
+                    "a cost belongs to a tolerance: write the parameter as `tolerance: { nominal, plus_minus, cp }`",
+                ));
+            }
+            let (distribution, drawing, spec_line, spec_field) =
+                match (&p.distribution, &p.tolerance) {
+                    (Some(d), None) => {
+                        let f = format!("{field}.distribution");
+                        (distribution(d, dim, &f)?, None, line(d), f)
+                    }
+                    (None, Some(t)) => {
+                        let f = format!("{field}.tolerance");
+                        let drawing = tolerance(t, dim, &f)?;
+                        (drawing.distribution(), Some(drawing), line(t), f)
+                    }
+                    (Some(_), Some(t)) => {
+                        return Err(at(
+                            line(t),
+                            format!("{field}.tolerance"),
+                            "give `distribution` or `tolerance`, not both",
+                        ))
+                    }
+                    (None, None) => {
+                        return Err(at(
+                            line(&p.path),
+                            field,
+                            "give a `distribution` or a `tolerance`",
+                        ))
+                    }
+                };
             if let Subject::Mechanism(scene) = &subject {
                 // every value the distribution can give must be one the scene accepts
                 for v in distribution.extreme_values() {
@@ -484,6 +534,8 @@ impl Study {
                 path: p.path.value.clone(),
                 distribution,
                 unit: dim.map(|d| d.si_unit()).unwrap_or_default(),
+                drawing,
+                cost: tolerance::cost(p.cost.as_ref(), &format!("{field}.cost"))?,
             });
         }
 
@@ -642,7 +694,16 @@ impl Study {
             None => None,
             Some(r) => Some(rare_event(r, &outputs, &parameters, kind, &spec, n as u64)?),
         };
+        let copula = copula::from_spec(&spec.correlations, &parameters)?;
+        let allocation = spec
+            .allocation
+            .as_ref()
+            .map(|a| tolerance::allocation_target(a, &outputs))
+            .transpose()?;
         Ok(Study {
+            copula,
+            allocation,
+            search: None,
             name,
             description: spec.description.clone().unwrap_or_default(),
             text: text.to_string(),
@@ -661,25 +722,41 @@ impl Study {
 
     /// Total runs (sample ids 0..runs); for a rare-event study, the most it may take.
     pub fn runs(&self) -> u64 {
-        match &self.reliability {
-            Some(r) => r.max_simulations,
-            None => self.design.runs(),
+        match (&self.search, &self.reliability) {
+            (Some(s), _) => s.runs,
+            (None, Some(r)) => r.max_simulations,
+            (None, None) => self.design.runs(),
         }
     }
 
+    /// The study as the runs of an adaptive search into `out`: `settings` (written into
+    /// the stored study text) make its result directory its own.
+    pub fn for_search(&self, kind: &'static str, settings: &str, runs: u64, out: PathBuf) -> Study {
+        let mut s = self.clone();
+        s.text = format!("{}\n# {kind}: {settings}\n", self.text.trim_end());
+        s.output_dir = out;
+        s.search = Some(Search { kind, runs });
+        s
+    }
+
     /// The inputs (SI) at standard-normal coordinates u, one per parameter.
+    /// The coordinates are independent; correlated parameters take them through the copula.
     pub fn inputs_at_standard(&self, u: &[f64]) -> Vec<f64> {
         self.parameters
             .iter()
-            .zip(u)
-            .map(|(p, &z)| p.distribution.from_standard(z))
+            .zip(self.copula.correlate(u))
+            .map(|(p, z)| p.distribution.from_standard(z))
             .collect()
     }
 
     /// Sample i's inputs (SI), in `parameters` order.
     pub fn inputs(&self, i: u64) -> Vec<f64> {
-        self.design
-            .point(i)
+        let point = self.design.point(i);
+        if !self.copula.is_independent() {
+            let z: Vec<f64> = point.iter().map(|&u| statistics::probit(u)).collect();
+            return self.inputs_at_standard(&z);
+        }
+        point
             .iter()
             .zip(&self.parameters)
             .map(|(&u, p)| p.distribution.quantile(u))

@@ -71,6 +71,7 @@ impl Shard {
     }
 }
 
+#[derive(Clone)]
 pub struct RunOptions {
     pub out: PathBuf,
     pub threads: Option<usize>,
@@ -213,7 +214,7 @@ impl Study {
                 .iter()
                 .map(|o| (o.name.clone(), o.unit.clone()))
                 .collect(),
-            tagged: self.reliability.is_some(),
+            tagged: self.reliability.is_some() || self.search.is_some(),
         }
     }
 
@@ -235,7 +236,11 @@ impl Study {
             tool: format!("mc-study {}", env!("CARGO_PKG_VERSION")),
             study_name: self.name.clone(),
             study_hash: self.hash(),
-            design: self.design.kind.name().to_string(),
+            design: self
+                .search
+                .as_ref()
+                .map_or(self.design.kind.name(), |s| s.kind)
+                .to_string(),
             seed: self.seed,
             samples: self.design.base,
             runs: self.runs(),

@@ -34,6 +34,48 @@ pub struct StudySpec {
     pub suspect: Option<Name>,
     /// A rare-event estimate of the out-of-spec probability instead of plain sampling.
     pub reliability: Option<Spanned<ReliabilitySpec>>,
+    /// Correlations between pairs of parameters (a Gaussian copula).
+    #[serde(default)]
+    pub correlations: Vec<Spanned<CorrelationSpec>>,
+    /// The target of `mc-study allocate`.
+    pub allocation: Option<Spanned<AllocationSpec>>,
+}
+
+/// `{ between: [a, b], rank: 0.8 }` or `{ between: [a, b], linear: 0.8 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CorrelationSpec {
+    pub between: Vec<Name>,
+    /// Spearman's rank correlation.
+    pub rank: Option<Spanned<f64>>,
+    /// Pearson's linear correlation.
+    pub linear: Option<Spanned<f64>>,
+}
+
+/// What tolerance allocation must meet, per output with limits.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AllocationSpec {
+    /// Smallest Cpk of every output with limits.
+    pub cpk: Option<Spanned<f64>>,
+    /// Largest out-of-spec rate, in parts per million (through the normal model).
+    pub ppm: Option<Spanned<f64>>,
+    /// The outputs the target applies to (default: every output with limits).
+    pub outputs: Option<Vec<Name>>,
+    /// The widest a tolerance may become, as a ratio to today's (default 4).
+    pub widest: Option<Spanned<f64>>,
+    /// The narrowest, as a ratio to today's (default 0.1).
+    pub narrowest: Option<Spanned<f64>>,
+}
+
+/// The cost of a tolerance t: a + b t₀ / t, with t₀ today's tolerance.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CostSpec {
+    /// The fixed part (default 0).
+    pub a: Option<Spanned<f64>>,
+    /// What today's precision costs (default 1).
+    pub b: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -63,6 +105,8 @@ pub struct ParameterSpec {
     pub distribution: Option<Spanned<DistributionSpec>>,
     /// The parameter as a drawing states it (instead of `distribution`).
     pub tolerance: Option<Spanned<ToleranceSpec>>,
+    /// The cost of its tolerance, for `mc-study allocate` (default: 1 / t).
+    pub cost: Option<Spanned<CostSpec>>,
 }
 
 /// A nominal value with its tolerance band and process capability:

@@ -4,6 +4,11 @@
 
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
+/// The standard normal quantile Φ⁻¹(p).
+pub fn probit(p: f64) -> f64 {
+    Normal::standard().inverse_cdf(p)
+}
+
 /// Arithmetic mean (NaN for an empty slice).
 pub fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len() as f64

@@ -6,7 +6,7 @@
 
 use super::statistics as st;
 use super::store::Table;
-use super::Output;
+use super::{Output, Parameter};
 use crate::scene::units::{Dim, DisplayUnit};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Deserializer, Serialize};
@@ -121,6 +121,20 @@ fn fixed(v: f64, decimals: usize) -> String {
     }
 }
 
+/// An input as the study states it (a drawing's tolerance, or a distribution), with the
+/// mean and σ that statement means.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct InputSummary {
+    pub name: String,
+    pub stated: String,
+    /// SI unit.
+    pub unit: String,
+    #[serde(deserialize_with = "nan")]
+    pub mean: f64,
+    #[serde(deserialize_with = "nan")]
+    pub sd: f64,
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Histogram {
     #[serde(deserialize_with = "nan")]
@@ -154,6 +168,9 @@ pub struct Summary {
     pub study: String,
     pub samples: u64,
     pub failed: u64,
+    /// The inputs as the study states them.
+    #[serde(default)]
+    pub inputs: Vec<InputSummary>,
     pub outputs: Vec<OutputSummary>,
     pub correlations: Vec<Correlation>,
     /// Failure reasons (first line) with their counts, most frequent first.
@@ -303,12 +320,31 @@ impl Summary {
             study: study.to_string(),
             samples: table.rows.len() as u64,
             failed,
+            inputs: Vec::new(),
             outputs: summaries,
             correlations,
             failures,
             suspect: suspicions.iter().map(|(_, n)| n).sum(),
             suspicions,
         }
+    }
+
+    /// The summary with the study's inputs as it states them.
+    pub fn with_inputs(mut self, parameters: &[Parameter]) -> Summary {
+        self.inputs = parameters
+            .iter()
+            .map(|p| {
+                let (mean, sd) = p.distribution.moments();
+                InputSummary {
+                    name: p.path.clone(),
+                    stated: p.stated(),
+                    unit: p.unit.clone(),
+                    mean,
+                    sd,
+                }
+            })
+            .collect();
+        self
     }
 
     /// JSON: NaN (undefined statistics, e.g. σ of one sample) is written as null.
@@ -395,6 +431,18 @@ impl fmt::Display for Summary {
             "study {}: {} samples, {} failed{suspect}",
             self.study, self.samples, self.failed
         );
+        if !self.inputs.is_empty() {
+            let w = self
+                .inputs
+                .iter()
+                .map(|i| i.name.chars().count())
+                .max()
+                .unwrap_or(0);
+            let _ = writeln!(s, "inputs:");
+            for i in &self.inputs {
+                let _ = writeln!(s, "  {:w$}  {}", i.name, i.stated);
+            }
+        }
         let mut rows = vec![[
             "output", "unit", "n", "mean", "±95%", "σ", "min", "p1", "p50", "p99", "max",
         ]
