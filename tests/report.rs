@@ -196,10 +196,11 @@ fn report_of_a_mechanism_study_is_one_self_contained_page() {
             .replace("samples: 256", "samples: 32"),
     );
     let r = report::build(&out).unwrap();
-    // per output: histogram, ECDF, running statistics, SRC², one scatter per input; plus
-    // two run-health figures
+    // per output: histogram, ECDF, running statistics, SRC², first-order indices from the
+    // samples, the contributors' Pareto chart, one scatter per input; plus two run-health
+    // figures
     let (outputs, inputs) = (2, 2);
-    assert_eq!(r.figures.len(), outputs * (4 + inputs) + 2);
+    assert_eq!(r.figures.len(), outputs * (6 + inputs) + 2);
     for f in &r.figures {
         for ext in ["svg", "png"] {
             let p = f.svg.with_extension(ext);
