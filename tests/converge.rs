@@ -200,3 +200,28 @@ fn a_peak_impact_force_is_judged_step_dependent() {
     // the recommendation judges the converging outputs only
     assert!(conv.recommend(1e-2).is_some());
 }
+
+/// `converge --out` writes only into a new or empty directory, or one of its own: a
+/// directory holding anything else is refused before any run.
+#[test]
+fn converge_refuses_a_foreign_output_directory() {
+    let dir = common::scratch("converge-out");
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_mc-study"))
+        .args(["converge", "--out"])
+        .arg(&dir)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/bouncing-ball/study.yaml"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("holds other files") && e.contains("notes.txt"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert!(!dir.join("converge.csv").exists());
+}

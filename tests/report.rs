@@ -231,3 +231,50 @@ fn report_of_a_mechanism_study_is_one_self_contained_page() {
         assert!(html.contains(needle), "missing `{needle}`");
     }
 }
+
+/// An output constant to round-off and a fixed input have no spread: no Cp, Cpk or
+/// correlation (null in summary.json, "–" on the page), never 1e13 or ±1; and a study of
+/// one sample prints no NaN anywhere.
+#[test]
+fn degenerate_statistics_are_undefined_not_numbers() {
+    let dir = scratch("report-degenerate");
+    std::fs::write(
+        dir.join("scene.yaml"),
+        "type: function\nname: flat\ninputs: [x, k]\noutputs:\n  - { name: flat, expression: \"0.1*3 + x*1e-14 + k\", unit: m }\n  - { name: y, expression: \"x + k\", unit: m }\n",
+    )
+    .unwrap();
+    let text = |n: u64| {
+        format!("scene: scene.yaml\nsamples: {n}\nparameters:\n  - {{ path: inputs.x, distribution: {{ normal: {{ mean: 1, sd: 0.1 }} }} }}\n  - {{ path: inputs.k, distribution: {{ fixed: 0.1 }} }}\nlimits:\n  - {{ output: flat, lower: 0.3 m, upper: 0.5 m }}\n  - {{ output: y, upper: 2 m }}\n")
+    };
+    let out = run_study(&dir, &text(64));
+    let m = mc_study::study::merge::merge(&out, false).unwrap();
+    let flat = m.summary.output("flat").unwrap();
+    assert_eq!((flat.cp, flat.cpk), (None, None));
+    let y = m.summary.output("y").unwrap();
+    assert!(y.cpk.is_some_and(|c| c > 2.0));
+    for c in &m.summary.correlations {
+        let defined = c.input == "inputs.x" && c.output == "y";
+        assert_eq!(
+            c.pearson.is_finite(),
+            defined,
+            "{} ~ {}: {}",
+            c.input,
+            c.output,
+            c.pearson
+        );
+        assert_eq!(c.spearman.is_finite(), defined);
+    }
+    let printed = m.summary.to_string();
+    assert!(
+        printed.contains("Cp –, Cpk – (the output is constant: no spread to rate)"),
+        "{printed}"
+    );
+    let html = std::fs::read_to_string(report::build(&out).unwrap().html).unwrap();
+    assert!(!html.contains("NaN") && html.contains("– (constant: no spread)"));
+    // one sample: no σ, no Cpk, no NaN on the page
+    let one = scratch("report-one-sample");
+    std::fs::copy(dir.join("scene.yaml"), one.join("scene.yaml")).unwrap();
+    let out = run_study(&one, &text(1));
+    let html = std::fs::read_to_string(report::build(&out).unwrap().html).unwrap();
+    assert!(!html.contains("NaN"), "NaN on the page of one sample");
+}

@@ -164,6 +164,9 @@ fn different_shard_splits_exclude_each_other() {
             .any(|l| l.starts_with("1/2") && l.ends_with("running")),
         "{s}"
     );
+    // a running shard is not a complete one
+    assert!(s.contains("shards still running: 1"), "{s}");
+    assert!(!s.contains("all shards complete"), "{s}");
     lock.unlock().unwrap();
     let r = run(&study, &options(&out, 4)).unwrap();
     assert_eq!((r.skipped, r.done), (16, 16));

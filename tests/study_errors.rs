@@ -197,3 +197,22 @@ fn fidelity_presets_and_an_unknown_preset() {
         "unknown preset `quick` (available: fast, balanced, accurate)",
     );
 }
+
+/// A study's name makes its default output directory results/<name>: a name that is a
+/// path would write elsewhere, so it is refused.
+#[test]
+fn a_study_name_must_be_a_plain_name() {
+    for name in ["../../../../x", "a/b", ".."] {
+        let e = error_of(
+            "path-name",
+            "name: bouncing-ball",
+            &format!("name: \"{name}\""),
+        );
+        assert_names(
+            &e,
+            "name",
+            line_of("name: bouncing-ball"),
+            "must be a plain name",
+        );
+    }
+}

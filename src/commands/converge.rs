@@ -69,6 +69,11 @@ pub fn converge(args: ConvergeArgs) -> Result<()> {
             results_dir.display()
         ),
     }
+    let dir = args
+        .out
+        .cloned()
+        .unwrap_or_else(|| study.output_dir.join("converge"));
+    check_converge_out(&dir)?;
     let total = (ladder.fidelities.len() + 1) as u64 * (1 + args.samples.min(study.runs()));
     let bar = indicatif::ProgressBar::new(total);
     bar.set_style(
@@ -89,10 +94,6 @@ pub fn converge(args: ConvergeArgs) -> Result<()> {
         .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
     print!("{conv}");
-    let dir = args
-        .out
-        .cloned()
-        .unwrap_or_else(|| study.output_dir.join("converge"));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let csv = dir.join("converge.csv");
     std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
@@ -120,6 +121,36 @@ pub fn converge(args: ConvergeArgs) -> Result<()> {
         None => println!(
             "no fidelity of the ladder meets the target {target} on the outputs that converge; refine h"
         ),
+    }
+    Ok(())
+}
+
+/// The files `converge` writes.
+const CONVERGE_FILES: [&str; 3] = ["converge.csv", "work-precision.svg", "work-precision.png"];
+
+/// Refuses, before any run, an OUT that exists and holds anything but an earlier
+/// `converge`'s files: like `run`, `converge` writes only into a new, empty or its own
+/// directory.
+fn check_converge_out(dir: &std::path::Path) -> Result<()> {
+    if !dir.exists() {
+        return Ok(());
+    }
+    if !dir.is_dir() {
+        bail!("{} exists and is not a directory", dir.display());
+    }
+    let foreign: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !CONVERGE_FILES.contains(&n.as_str()))
+        .collect();
+    if !foreign.is_empty() {
+        bail!(
+            "{} holds other files than an earlier `converge`'s ({}{}); nothing was run or written. Choose a new or empty directory.",
+            dir.display(),
+            foreign.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
+            if foreign.len() > 3 { ", …" } else { "" }
+        );
     }
     Ok(())
 }

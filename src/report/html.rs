@@ -4,6 +4,7 @@
 
 use super::{Data, FigureFile};
 use crate::study::store::{META_SCENE, META_STUDY, META_VERSION};
+use crate::study::summary::percent;
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
@@ -197,17 +198,18 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         let q: Vec<String> = o.quantiles.iter().map(|(_, v)| num(*v)).collect();
         let spec = match &o.out_of_spec {
             Some(x) => format!(
-                "{} = {:.3} % ({:.3}–{:.3} %)",
+                "{} = {} % ({}–{} %)",
                 x.count,
-                100.0 * x.fraction,
-                100.0 * x.wilson95.0,
-                100.0 * x.wilson95.1
+                percent(x.fraction),
+                percent(x.wilson95.0),
+                percent(x.wilson95.1)
             ),
             None => "–".into(),
         };
         let cap = match (o.cp, o.cpk) {
             (Some(a), Some(b)) => format!("{a:.2} / {b:.2}"),
             (None, Some(b)) => format!("– / {b:.2}"),
+            _ if o.out_of_spec.is_some() && o.count > 1 => "– (constant: no spread)".into(),
             _ => "–".into(),
         };
         let _ = writeln!(
@@ -264,7 +266,9 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
                         .correlations
                         .iter()
                         .find(|c| c.input == *i && &c.output == name)
-                        .map_or("–".into(), |c| format!("{:.3}", f(c)))
+                        .map(f)
+                        .filter(|v| v.is_finite())
+                        .map_or("–".into(), |v| format!("{v:.3}"))
                 })
                 .collect()
         };
@@ -284,7 +288,11 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             row("SRRC", c.iter().map(fmt).collect(), format!("{r2:.3}"));
         }
         let e = |x: &crate::study::sensitivity::Estimate| {
-            format!("{:.3} [{:.3}, {:.3}]", x.value, x.ci95.0, x.ci95.1)
+            if x.value.is_finite() {
+                format!("{:.3} [{:.3}, {:.3}]", x.value, x.ci95.0, x.ci95.1)
+            } else {
+                "–".into()
+            }
         };
         if let Some(f) = &sens.first_order {
             row(

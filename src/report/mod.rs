@@ -275,6 +275,12 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
                 .iter()
                 .find(|c| &c.input == input && &c.output == name);
             let title = match corr {
+                Some(c) if !c.pearson.is_finite() => {
+                    format!(
+                        "{name} vs {}: one of them is constant, no correlation",
+                        inputs[j]
+                    )
+                }
                 Some(c) => format!(
                     "{name} vs {}: Pearson {:.2}, Spearman {:.2}",
                     inputs[j], c.pearson, c.spearman

@@ -203,6 +203,7 @@ impl std::fmt::Display for StatusReport {
             "shard", "samples", "done", "failed", "missing"
         )?;
         let mut resubmit = Vec::new();
+        let mut running = Vec::new();
         for s in &self.shards {
             let state = if s.done == s.samples {
                 "complete"
@@ -216,6 +217,9 @@ impl std::fmt::Display for StatusReport {
             if s.done < s.samples && !s.running {
                 resubmit.push(s.shard.index.to_string());
             }
+            if s.done < s.samples && s.running {
+                running.push(s.shard.index.to_string());
+            }
             writeln!(
                 f,
                 "{:<8} {:>9} {:>9} {:>9} {:>9}  {state}",
@@ -226,14 +230,19 @@ impl std::fmt::Display for StatusReport {
                 s.samples - s.done
             )?;
         }
-        if resubmit.is_empty() {
+        if !running.is_empty() {
+            writeln!(f, "shards still running: {}", running.join(","))?;
+        }
+        if !resubmit.is_empty() {
+            writeln!(f, "incomplete shards: --array={}", resubmit.join(","))
+        } else if running.is_empty() {
             writeln!(
                 f,
                 "all shards complete: `mc-study merge {}`",
                 self.out.display()
             )
         } else {
-            writeln!(f, "incomplete shards: --array={}", resubmit.join(","))
+            Ok(())
         }
     }
 }

@@ -671,6 +671,19 @@ impl Study {
                 Subject::Mechanism(s) => s.name.clone(),
                 Subject::Function(f) => f.name.clone(),
             });
+        // the name makes the default output directory: it must stay one plain name
+        if name.trim().is_empty() || name == "." || name == ".." || name.contains(['/', '\\', '\0'])
+        {
+            let (l, field) = match &spec.name {
+                Some(n) => (line(n), "name"),
+                None => (line(&spec.scene), "scene"),
+            };
+            return Err(at(
+                l,
+                field,
+                format!("the study's name `{name}` must be a plain name (no `/`, `\\` or `..`): it names the default output directory results/<name>"),
+            ));
+        }
         let output_dir = match &spec.output {
             None => PathBuf::from("results").join(&name),
             Some(o) if o.value.trim().is_empty() => {

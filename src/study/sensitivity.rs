@@ -20,6 +20,9 @@ pub struct Regression {
 }
 
 fn standardise(x: &[f64]) -> Option<Vec<f64>> {
+    if super::statistics::is_constant(x) {
+        return None;
+    }
     let n = x.len() as f64;
     let m = x.iter().sum::<f64>() / n;
     let s = (x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();

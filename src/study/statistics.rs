@@ -72,6 +72,10 @@ pub fn capability(
     lower: Option<f64>,
     upper: Option<f64>,
 ) -> (Option<f64>, Option<f64>) {
+    // no spread (one sample, or none): nothing to rate
+    if !(sd > 0.0 && sd.is_finite() && mean.is_finite()) {
+        return (None, None);
+    }
     let cp = match (lower, upper) {
         (Some(l), Some(u)) => Some((u - l) / (6.0 * sd)),
         _ => None,
@@ -85,8 +89,22 @@ pub fn capability(
     (cp, cpk)
 }
 
-/// Pearson correlation coefficient.
+/// Whether the finite values of `x` are one value, up to round-off: their range within
+/// 1e-9 of their largest magnitude. Such a sample has no spread, so no Cp, Cpk or
+/// correlation.
+pub fn is_constant(x: &[f64]) -> bool {
+    let (lo, hi, big) = x.iter().filter(|v| v.is_finite()).fold(
+        (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
+        |(lo, hi, big), &v| (lo.min(v), hi.max(v), big.max(v.abs())),
+    );
+    lo > hi || hi - lo <= 1e-9 * big
+}
+
+/// Pearson correlation coefficient; NaN (undefined) when either sample is constant.
 pub fn pearson(x: &[f64], y: &[f64]) -> f64 {
+    if is_constant(x) || is_constant(y) {
+        return f64::NAN;
+    }
     let (mx, my) = (mean(x), mean(y));
     let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
     for (a, b) in x.iter().zip(y) {
@@ -117,8 +135,12 @@ pub fn ranks(x: &[f64]) -> Vec<f64> {
     r
 }
 
-/// Spearman rank correlation (Pearson on ranks, ties averaged).
+/// Spearman rank correlation (Pearson on ranks, ties averaged); NaN (undefined) when
+/// either sample is constant, round-off included.
 pub fn spearman(x: &[f64], y: &[f64]) -> f64 {
+    if is_constant(x) || is_constant(y) {
+        return f64::NAN;
+    }
     pearson(&ranks(x), &ranks(y))
 }
 

@@ -110,6 +110,15 @@ impl OutputSummary {
     }
 }
 
+/// A fraction as a percentage with 3 decimals ("–" if undefined, as with no samples).
+pub fn percent(fraction: f64) -> String {
+    if fraction.is_finite() {
+        format!("{:.3}", 100.0 * fraction)
+    } else {
+        "–".into()
+    }
+}
+
 /// `v` with `decimals` decimals, in exponent form beyond 1e7 ("–" if not finite).
 fn fixed(v: f64, decimals: usize) -> String {
     if !v.is_finite() {
@@ -267,7 +276,12 @@ impl Summary {
                     wilson95: st::wilson95(bad, x.len() as u64),
                 }
             });
-            let (cp, cpk) = st::capability(mean, sd, lower, upper);
+            // a constant output has no spread to compare with its limits
+            let (cp, cpk) = if st::is_constant(x) {
+                (None, None)
+            } else {
+                st::capability(mean, sd, lower, upper)
+            };
             let (hl, hw, counts) = st::histogram(x);
             summaries.push(OutputSummary {
                 name: o.name.clone(),
@@ -470,17 +484,24 @@ impl fmt::Display for Summary {
                 let limit = |v: Option<f64>, none: &str| v.map_or(none.into(), |v| o.show(v));
                 let _ = writeln!(
                     s,
-                    "{}: out of spec [{}, {}] {}: {} = {:.3} % (95 % CI {:.3}–{:.3} %), Cp {}, Cpk {}",
+                    "{}: out of spec [{}, {}] {}: {} = {} % (95 % CI {}–{} %), Cp {}, Cpk {}{}",
                     o.name,
                     limit(o.lower_limit, "−∞"),
                     limit(o.upper_limit, "∞"),
                     o.display_unit,
                     os.count,
-                    100.0 * os.fraction,
-                    100.0 * os.wilson95.0,
-                    100.0 * os.wilson95.1,
+                    percent(os.fraction),
+                    percent(os.wilson95.0),
+                    percent(os.wilson95.1),
                     o.cp.map_or("–".into(), |v| format!("{v:.3}")),
                     o.cpk.map_or("–".into(), |v| format!("{v:.3}")),
+                    if o.cpk.is_none() && o.count > 1 {
+                        " (the output is constant: no spread to rate)"
+                    } else if o.cpk.is_none() {
+                        " (fewer than 2 samples: no spread to rate)"
+                    } else {
+                        ""
+                    },
                 );
             }
         }
