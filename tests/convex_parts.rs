@@ -358,3 +358,144 @@ probes:
         o.outputs[0]
     );
 }
+
+/// A binary STL of `triangles` (corner coordinates in file units), 32-bit floats.
+fn binary_stl(triangles: &[[[f64; 3]; 3]]) -> Vec<u8> {
+    let mut b = vec![0u8; 80];
+    b.extend((triangles.len() as u32).to_le_bytes());
+    for t in triangles {
+        b.extend([0u8; 12]);
+        for v in t {
+            for x in v {
+                b.extend((*x as f32).to_le_bytes());
+            }
+        }
+        b.extend([0u8; 2]);
+    }
+    b
+}
+
+/// A 16 × 8 UV sphere of radius `r` about `c`, wound outward.
+fn uv_sphere(r: f64, c: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
+    let (seg, rings) = (16, 8);
+    let p = |i: usize, j: usize| {
+        let (th, ph) = (
+            std::f64::consts::PI * i as f64 / rings as f64,
+            2.0 * std::f64::consts::PI * j as f64 / seg as f64,
+        );
+        [
+            c[0] + r * th.sin() * ph.cos(),
+            c[1] + r * th.sin() * ph.sin(),
+            c[2] + r * th.cos(),
+        ]
+    };
+    let mut out = Vec::new();
+    for i in 0..rings {
+        for j in 0..seg {
+            let (a, b, cc, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            if i > 0 {
+                out.push([a, b, d]);
+            }
+            if i + 1 < rings {
+                out.push([b, cc, d]);
+            }
+        }
+    }
+    // outward: the normal points away from the centre
+    for t in &mut out {
+        let v = |k: usize| Vector3::from(t[k]);
+        let n = (v(1) - v(0)).cross(&(v(2) - v(0)));
+        if n.dot(&(v(0) - Vector3::from(c))) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    out
+}
+
+/// Geometry files that would mislead are refused with their real cause: a NaN or infinite
+/// coordinate (ASCII STL, binary STL, OBJ, inline vertices), a coordinate far beyond any
+/// mechanism, an ASCII STL cut short, a device file; and a convex part exported as a
+/// binary STL, whose 32-bit coordinates sit a little off its faces, is accepted as it is
+/// in ASCII.
+#[test]
+fn hostile_geometry_files_are_refused_with_their_cause() {
+    let dir = scratch("hostile_meshes");
+    let facet = |a: &str| {
+        format!("  facet normal 0 0 0\n    outer loop\n      vertex {a}\n      vertex 1 0 0\n      vertex 0 1 0\n    endloop\n  endfacet\n")
+    };
+    std::fs::write(
+        dir.join("nan.stl"),
+        format!("solid x\n{}endsolid x\n", facet("nan 0 0")),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("huge.stl"),
+        format!("solid x\n{}endsolid x\n", facet("1e300 0 0")),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("cut.stl"),
+        format!("solid x\n{}{}", facet("0 0 0"), facet("0 0 1")),
+    )
+    .unwrap();
+    let mut bin = uv_sphere(10.0, [0.0, 0.0, 0.0]);
+    bin[3][1][2] = f64::NAN;
+    std::fs::write(dir.join("nan-binary.stl"), binary_stl(&bin)).unwrap();
+    std::fs::write(
+        dir.join("inf.obj"),
+        "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let sphere = uv_sphere(10.0, [30.0, 20.0, 10.0]);
+    std::fs::write(dir.join("sphere.stl"), binary_stl(&sphere)).unwrap();
+    let scene = |shape: &str| {
+        format!(
+            "name: bad\nduration: 1\nbodies:\n  - {{ name: b, mass: 1, inertia: [1, 1, 1] }}\ncontacts:\n  - body: b\n    shape: {{ sphere: {{ radius: 0.1 }} }}\n    against_shape:\n      {shape}\n"
+        )
+    };
+    let cases = [
+        (
+            "mesh: { file: nan.stl, scale: 1 mm }",
+            "line 4: the coordinate NaN is not a finite number",
+        ),
+        (
+            "mesh: { file: nan-binary.stl, scale: 1 mm }",
+            "facet 3, vertex 1: the coordinate NaN is not a finite number",
+        ),
+        (
+            "mesh: { file: inf.obj, scale: 1 mm }",
+            "line 1: the coordinate inf is not a finite number",
+        ),
+        (
+            "convex: { file: nan.stl, scale: 1 mm }",
+            "not a finite number",
+        ),
+        (
+            "convex: { vertices: [[.nan, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]] }",
+            "non-finite float",
+        ),
+        (
+            "mesh: { file: huge.stl, scale: 1 mm }",
+            "is `scale` or the file's unit wrong?",
+        ),
+        (
+            "mesh: { file: cut.stl, scale: 1 mm }",
+            "a truncated or malformed ASCII STL",
+        ),
+        (
+            "mesh: { file: /dev/zero, scale: 1 mm }",
+            "not a regular file",
+        ),
+    ];
+    for (shape, what) in cases {
+        let path = dir.join("scene.yaml");
+        std::fs::write(&path, scene(shape)).unwrap();
+        let e = Scene::load(&path).expect_err(shape);
+        assert_eq!(e.line, Some(9), "{shape}: {e}");
+        assert!(e.message.contains(what), "{shape}: {e}");
+    }
+    // the UV sphere as a convex part, binary and ASCII alike
+    let path = dir.join("scene.yaml");
+    std::fs::write(&path, scene("convex: { file: sphere.stl, scale: 1 mm }")).unwrap();
+    Scene::load(&path).unwrap_or_else(|e| panic!("binary STL sphere: {e}"));
+}

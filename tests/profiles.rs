@@ -229,6 +229,16 @@ fn bad_profiles_are_refused_with_the_piece_and_line() {
             "path[0].line",
             "2 components",
         ),
+        // a bow tie: its second and fourth sides cross at (0.5, 0.5)
+        (
+            scene(
+                "          - line: [1, 0]\n          - line: [0, 1]\n          - line: [1, 1]\n          - line: [0, 0]\n",
+                "        solid: inside\n",
+            ),
+            17,
+            "path[3]",
+            "the profile crosses itself: piece 1 and piece 3 intersect near (0.500000, 0.500000)",
+        ),
     ];
     for (yaml, line, field, message) in cases {
         let e = Scene::from_yaml(&yaml, "bad.yaml").expect_err(&yaml);

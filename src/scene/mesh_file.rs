@@ -1,18 +1,29 @@
 //! Reading triangle meshes from CAD exports: STL (binary or ASCII) and Wavefront OBJ
 //! (`v` and `f` lines; faces of more than three vertices are fanned). Vertices at the same
-//! coordinates are merged, since STL repeats them per facet.
+//! coordinates are merged, since STL repeats them per facet. A file is read only if it is
+//! a regular file of bounded size, and every coordinate must be a finite number within
+//! reach of a mechanism, so that a NaN or a unit error is named where it is.
 
 use nalgebra::Vector3;
 use std::collections::HashMap;
+use std::io::Read;
 use std::path::Path;
+
+/// The largest mesh file read: a CAD part of a mechanism is far below (a 1-million-facet
+/// binary STL is 50 MB).
+pub const MAX_BYTES: u64 = 256 << 20;
+
+/// The farthest a vertex may lie from the origin, in metres: beyond, the file's unit or
+/// `scale` is wrong.
+pub const MAX_REACH: f64 = 1e4;
 
 /// A mesh as read: its vertices and its triangles (vertex indices).
 pub type Triangles = (Vec<Vector3<f64>>, Vec<[usize; 3]>);
 
 /// Vertices (file units times `scale`) and triangles of a mesh file.
 pub fn read(path: &Path, scale: f64) -> Result<Triangles, String> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| format!("cannot read mesh file {}: {e}", path.display()))?;
+    let bytes =
+        bounded(path).map_err(|e| format!("cannot read mesh file {}: {e}", path.display()))?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -23,7 +34,52 @@ pub fn read(path: &Path, scale: f64) -> Result<Triangles, String> {
         _ => Err("unknown mesh format (expected .stl or .obj)".into()),
     }
     .map_err(|e| format!("{}: {e}", path.display()))?;
+    for (k, t) in soup.iter().enumerate() {
+        for (v, c) in t.iter().enumerate() {
+            let far = c.iter().map(|x| (x * scale).abs()).fold(0.0, f64::max);
+            if far > MAX_REACH {
+                return Err(format!(
+                    "{}: triangle {k}, vertex {v} lies at {:e} m from the origin (beyond {MAX_REACH:e} m): is `scale` or the file's unit wrong?",
+                    path.display(),
+                    far
+                ));
+            }
+        }
+    }
     Ok(weld(soup, scale))
+}
+
+/// The bytes of a regular file of at most [`MAX_BYTES`]; a device, a FIFO or a larger file
+/// is refused without reading it.
+fn bounded(path: &Path) -> Result<Vec<u8>, String> {
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let meta = file.metadata().map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err("not a regular file (a device, a FIFO or a directory)".into());
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > MAX_BYTES {
+        return Err(format!(
+            "larger than {} MiB: not a mechanism part",
+            MAX_BYTES >> 20
+        ));
+    }
+    Ok(bytes)
+}
+
+/// A coordinate read from a file: finite, or an error naming where it is.
+fn finite(x: f64, place: impl Fn() -> String) -> Result<f64, String> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{}: the coordinate {x} is not a finite number",
+            place()
+        ))
+    }
 }
 
 /// Triangles as corner coordinates.
@@ -34,32 +90,58 @@ fn stl(bytes: &[u8]) -> Result<Soup, String> {
     if bytes.len() >= 84 {
         let n = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
         if bytes.len() == 84 + 50 * n {
-            return Ok((0..n)
-                .map(|k| {
-                    let f = &bytes[84 + 50 * k + 12..84 + 50 * k + 48];
-                    let c = |i: usize| {
-                        f32::from_le_bytes(f[4 * i..4 * i + 4].try_into().unwrap()) as f64
-                    };
-                    [0, 1, 2].map(|v| [c(3 * v), c(3 * v + 1), c(3 * v + 2)])
-                })
-                .collect());
+            let mut soup = Vec::with_capacity(n);
+            for k in 0..n {
+                let f = &bytes[84 + 50 * k + 12..84 + 50 * k + 48];
+                let mut t = [[0.0; 3]; 3];
+                for (v, corner) in t.iter_mut().enumerate() {
+                    for (i, x) in corner.iter_mut().enumerate() {
+                        let j = 4 * (3 * v + i);
+                        let read = f32::from_le_bytes(f[j..j + 4].try_into().unwrap());
+                        *x = finite(read as f64, || format!("facet {k}, vertex {v}"))?;
+                    }
+                }
+                soup.push(t);
+            }
+            return Ok(soup);
         }
     }
     let text = std::str::from_utf8(bytes).map_err(|_| "neither a binary nor an ASCII STL")?;
     let mut soup = Vec::new();
     let mut corners = Vec::new();
+    let (mut facets, mut closed) = (0usize, 0usize);
+    let mut last = "";
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        if words.next() == Some("vertex") {
-            corners.push(coordinates(words, n + 1)?);
-            if corners.len() == 3 {
-                soup.push([corners[0], corners[1], corners[2]]);
-                corners.clear();
+        let first = words.next();
+        match first {
+            Some("vertex") => {
+                corners.push(coordinates(words, n + 1)?);
+                if corners.len() == 3 {
+                    soup.push([corners[0], corners[1], corners[2]]);
+                    corners.clear();
+                }
             }
+            Some("facet") => facets += 1,
+            Some("endfacet") => closed += 1,
+            _ => {}
+        }
+        if let Some(w) = first {
+            last = w;
         }
     }
     if soup.is_empty() {
         return Err("no facets".into());
+    }
+    // a file cut short (a transfer or an export that stopped) must not pass as a smaller part
+    if last != "endsolid" || !corners.is_empty() || facets != closed || facets != soup.len() {
+        return Err(format!(
+            "a truncated or malformed ASCII STL: {} facets begun, {} ended, {} with three vertices{}",
+            facets,
+            closed,
+            soup.len(),
+            if last != "endsolid" { ", and no `endsolid` at the end" } else { "" }
+        ));
     }
     Ok(soup)
 }
@@ -70,6 +152,9 @@ fn coordinates<'a>(words: impl Iterator<Item = &'a str>, line: usize) -> Result<
         .map(|w| w.parse::<f64>())
         .collect::<Result<_, _>>()
         .map_err(|e| format!("line {line}: {e}"))?;
+    for x in &v {
+        finite(*x, || format!("line {line}"))?;
+    }
     match v[..] {
         [x, y, z] => Ok([x, y, z]),
         _ => Err(format!("line {line}: a vertex needs 3 coordinates")),

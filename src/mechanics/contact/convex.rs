@@ -62,6 +62,12 @@ impl ConvexPart {
                 points.len()
             ));
         }
+        if let Some(k) = points.iter().position(|p| !p.iter().all(|x| x.is_finite())) {
+            return Err(format!(
+                "point {k} has a coordinate that is not a finite number: {:?}",
+                points[k].as_slice()
+            ));
+        }
         let scale = points.iter().map(|p| p.norm()).fold(0.0, f64::max);
         let pts: Vec<PVector> = points.iter().map(to_parry).collect();
         let (hull, tris) = parry3d_f64::transformation::try_convex_hull(&pts)
@@ -88,7 +94,15 @@ impl ConvexPart {
             let n = n.normalize();
             planes.push((n, n.dot(&a)));
         }
-        let tolerance = 1e-9 * scale.max(f64::MIN_POSITIVE);
+        // relative to the part's own size: a binary STL rounds each coordinate to 32 bits,
+        // which leaves a convex part's vertices up to about 1e-7 of that size off its faces
+        let centre = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+        let size = points
+            .iter()
+            .map(|p| (p - centre).norm())
+            .fold(0.0, f64::max);
+        let tolerance =
+            (1e-6 * size + 4.0 * f64::from(f32::EPSILON) * centre.norm()).max(f64::MIN_POSITIVE);
         if exact {
             let inside: Vec<usize> = points
                 .iter()

@@ -69,11 +69,19 @@ pub fn check(vertices: &[Vector3<f64>], triangles: &[[usize; 3]]) -> Result<(), 
 /// Checks that a closed, checked mesh is convex: every vertex on or behind every
 /// triangle's plane.
 pub fn check_convex(vertices: &[Vector3<f64>], triangles: &[[usize; 3]]) -> Result<(), String> {
-    let scale = vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    // the part's own size, not its distance from the origin; a binary STL rounds each
+    // coordinate to 32 bits, which leaves a convex part's vertices up to about 1e-7 of
+    // that size off its faces
+    let centre = vertices.iter().sum::<Vector3<f64>>() / vertices.len().max(1) as f64;
+    let size = vertices
+        .iter()
+        .map(|v| (v - centre).norm())
+        .fold(0.0, f64::max);
+    let tolerance = 1e-6 * size + 4.0 * f64::from(f32::EPSILON) * centre.norm();
     for (k, t) in triangles.iter().enumerate() {
         let [a, b, c] = t.map(|i| vertices[i]);
         let n = (b - a).cross(&(c - a)).normalize();
-        if let Some(v) = vertices.iter().position(|v| n.dot(&(v - a)) > 1e-9 * scale) {
+        if let Some(v) = vertices.iter().position(|v| n.dot(&(v - a)) > tolerance) {
             return Err(format!(
                 "the mesh is not convex: vertex {v} lies outside the plane of triangle {k}"
             ));

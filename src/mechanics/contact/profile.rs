@@ -187,6 +187,8 @@ impl Profile {
         let mut tangents = Vec::new();
         let mut from = start;
         let mut outline = vec![start];
+        // the piece each segment of the outline belongs to
+        let mut owner: Vec<usize> = Vec::new();
         for (i, p) in pieces.iter().enumerate() {
             match p {
                 Piece::Line { to } => {
@@ -204,6 +206,7 @@ impl Profile {
                     });
                     tangents.push((tangent, tangent));
                     outline.push(*to);
+                    owner.push(i);
                 }
                 Piece::Arc { to, center, ccw } => {
                     let (r0, r1) = ((from - center).norm(), (to - center).norm());
@@ -234,6 +237,7 @@ impl Profile {
                             center
                                 + Vector2::new(cos * s.x - sin * s.y, sin * s.x + cos * s.y) * r0,
                         );
+                        owner.push(i);
                     }
                     pieces_out.push(Feature::Arc {
                         center: *center,
@@ -248,6 +252,15 @@ impl Profile {
             from = match p {
                 Piece::Line { to } | Piece::Arc { to, .. } => *to,
             };
+        }
+        if let Some((i, j, at)) = crossing(&outline, &owner, closed, tol) {
+            return Err((
+                Some(j),
+                format!(
+                    "the profile crosses itself: piece {i} and piece {j} intersect near ({:.6}, {:.6}); a contact against it would be undefined",
+                    at.x, at.y
+                ),
+            ));
         }
         // convex corners: the walk turns away from the open side
         let mut features = Vec::new();
@@ -691,6 +704,37 @@ pub struct ProfileContact {
     pub geometry: super::ContactGeometry,
     /// In-plane direction across the normal, where the pin centre is, and κ.
     pub lateral: Option<(Vector3<f64>, Vector3<f64>, f64)>,
+}
+
+/// The first two pieces whose outline segments cross (pieces i < j, and the point), on
+/// the outline's polyline (arcs sampled); segments that meet at a shared end do not count.
+fn crossing(
+    outline: &[Vector2<f64>],
+    owner: &[usize],
+    closed: bool,
+    tol: f64,
+) -> Option<(usize, usize, Vector2<f64>)> {
+    let m = owner.len();
+    let orient = |a: &Vector2<f64>, b: &Vector2<f64>, c: &Vector2<f64>| cross(&(b - a), &(c - a));
+    for p in 0..m {
+        let (a, b) = (outline[p], outline[p + 1]);
+        for q in p + 2..m {
+            // the last segment of a closed outline meets the first at the start
+            if closed && p == 0 && q == m - 1 {
+                continue;
+            }
+            let (c, d) = (outline[q], outline[q + 1]);
+            let scale = tol * ((b - a).norm() + (d - c).norm());
+            let (o1, o2) = (orient(&a, &b, &c), orient(&a, &b, &d));
+            let (o3, o4) = (orient(&c, &d, &a), orient(&c, &d, &b));
+            let proper = |x: f64, y: f64| (x > scale && y < -scale) || (x < -scale && y > scale);
+            if proper(o1, o2) && proper(o3, o4) {
+                let t = o3 / (o3 - o4);
+                return Some((owner[p], owner[q], a + (b - a) * t));
+            }
+        }
+    }
+    None
 }
 
 /// Twice the signed area enclosed by a closed path (> 0 counter-clockwise), arcs included.
