@@ -277,6 +277,11 @@ mod cli {
             ("bodies.nope.mass=1", "nope"),
             ("bodies.ball.mass=3 mm", "a mass"),
             ("bodies.ball.mass", "PATH=VALUE"),
+            // a bare number for a length: 0.1 would be 100 mm
+            (
+                "bodies.ball.shape.sphere.radius=0.1",
+                "`bodies.ball.shape.sphere.radius` is a length (e.g. mm): write its unit, e.g. `bodies.ball.shape.sphere.radius=0.1 m`",
+            ),
         ] {
             let o = mc_study(&["simulate", "studies/bouncing-ball/scene.yaml", "--set", set]);
             let err = String::from_utf8_lossy(&o.stderr);

@@ -1,5 +1,6 @@
 //! `mc-study simulate`: loads a scene, applies `--set`, runs it and prints its report.
 
+use crate::scene::units::{parse_quantity, Dim};
 use crate::scene::Scene;
 use crate::simulate::{simulate, DrawingRequest, SimulateOptions};
 use anyhow::{bail, Result};
@@ -20,6 +21,7 @@ pub struct SimulateArgs<'a> {
 pub fn simulate_command(args: SimulateArgs) -> Result<()> {
     let mut scene = Scene::load(args.scene)?;
     for s in args.sets {
+        check_unit(&scene, s)?;
         scene
             .apply_setting(s)
             .map_err(|e| anyhow::anyhow!("--set {e}"))?;
@@ -59,6 +61,28 @@ pub fn simulate_command(args: SimulateArgs) -> Result<()> {
         eprintln!(
             "warning: {} step(s) did not converge; see the counts above",
             report.nonconverged_steps()
+        );
+    }
+    Ok(())
+}
+
+/// On the command line a dimensional value needs its unit: `joints.B.clearance=0.1` would
+/// be 100 mm in SI, which nobody types on purpose. Zero is zero in every unit. (Files keep
+/// their rule, bare numbers in SI, and so does the Python API.)
+fn check_unit(scene: &Scene, setting: &str) -> Result<()> {
+    let Some((path, value)) = setting.split_once('=') else {
+        return Ok(());
+    };
+    let (path, value) = (path.trim(), value.trim());
+    let (Ok(dim), Ok(q)) = (scene.parameter_dim(path), parse_quantity(value)) else {
+        // apply_setting names what is wrong
+        return Ok(());
+    };
+    if q.dim.is_none() && dim != Dim::NONE && q.si != 0.0 {
+        bail!(
+            "--set `{setting}`: `{path}` is {}: write its unit, e.g. `{path}={value} {}`",
+            dim.describe(),
+            dim.si_unit()
         );
     }
     Ok(())
