@@ -192,7 +192,7 @@ pub fn parse_quantity(text: &str) -> Result<Quantity, String> {
                 None => (tok, 1),
             };
             let (e10, f, d) = unit(name).ok_or_else(|| {
-                format!("unknown unit `{name}` in `{text}` (known: m mm um cm km kg g s ms us min N kN mN J rad deg rpm Hz, combined with * / ^)")
+                format!("unknown unit `{name}` in `{text}` (known: m km cm mm um nm kg g mg s ms us min N kN mN J rad mrad deg rpm Hz, combined with * / ^)")
             })?;
             exp10 += e10 * i32::from(exp * sign);
             factor *= f.powi(i32::from(exp * sign));
