@@ -10,15 +10,19 @@ pub const MAX_BYTES: u64 = 16 << 20;
 /// The file's text, or why it cannot be had (unreadable, too large, not UTF-8).
 pub fn read(path: &Path) -> Result<String, String> {
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let bytes = read_at_most(file, MAX_BYTES, "not a study or scene file")?;
+    String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string())
+}
+
+/// At most `max` bytes of `file`, never more read; beyond, an error naming the bound and
+/// `what` the file then cannot be.
+pub fn read_at_most(file: std::fs::File, max: u64, what: &str) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::new();
-    file.take(MAX_BYTES + 1)
+    file.take(max + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| e.to_string())?;
-    if bytes.len() as u64 > MAX_BYTES {
-        return Err(format!(
-            "larger than {} MiB: not a study or scene file",
-            MAX_BYTES >> 20
-        ));
+    if bytes.len() as u64 > max {
+        return Err(format!("larger than {} MiB: {what}", max >> 20));
     }
-    String::from_utf8(bytes).map_err(|_| "not UTF-8 text".to_string())
+    Ok(bytes)
 }

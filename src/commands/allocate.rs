@@ -5,6 +5,7 @@ use super::check_threads;
 use super::worst_case::results_of;
 use crate::study::runner::RunOptions;
 use crate::study::stop_signals::StopSignals;
+use crate::study::summary::write_columns;
 use crate::study::Study;
 use crate::tolerancing::allocation_run::{allocate as run_allocation, Allocation, Ended};
 use anyhow::{bail, Result};
@@ -127,10 +128,12 @@ pub fn allocate(args: &AllocateArgs) -> Result<Option<u8>> {
 /// The allocation table and each round's confirmation.
 pub fn describe(study: &Study, a: &Allocation) -> String {
     let mut s = String::new();
-    let mut rows = vec![["parameter", "today", "allocated", "ratio", "cost"].map(String::from)];
+    let mut rows = vec![["parameter", "today", "allocated", "ratio", "cost"]
+        .map(String::from)
+        .to_vec()];
     for (p, &r) in study.parameters.iter().zip(&a.ratios) {
         rows.push(match &p.drawing {
-            None => [
+            None => vec![
                 p.path.clone(),
                 p.stated(),
                 "held: not a tolerance".into(),
@@ -139,7 +142,7 @@ pub fn describe(study: &Study, a: &Allocation) -> String {
             ],
             Some(d) => {
                 let unit = p.display_unit();
-                [
+                vec![
                     p.path.clone(),
                     d.describe(&unit),
                     d.scaled(r).describe(&unit),
@@ -149,17 +152,8 @@ pub fn describe(study: &Study, a: &Allocation) -> String {
             }
         });
     }
-    let widths: Vec<usize> = (0..5)
-        .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
-        .collect();
-    for r in &rows {
-        let line: Vec<String> = r
-            .iter()
-            .zip(&widths)
-            .map(|(v, w)| format!("{v}{}", " ".repeat(w - v.chars().count())))
-            .collect();
-        let _ = writeln!(s, "{}", line.join("  ").trim_end());
-    }
+    // every column left-aligned, as a drawing's tolerances read
+    write_columns(&mut s, &rows, 5);
     let _ = writeln!(
         s,
         "total cost {:.3} → {:.3} ({:+.1} %)",

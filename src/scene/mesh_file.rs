@@ -6,7 +6,6 @@
 
 use nalgebra::Vector3;
 use std::collections::HashMap;
-use std::io::Read;
 use std::path::Path;
 
 /// The largest mesh file read: a CAD part of a mechanism is far below (a 1-million-facet
@@ -57,17 +56,7 @@ fn bounded(path: &Path) -> Result<Vec<u8>, String> {
     if !meta.is_file() {
         return Err("not a regular file (a device, a FIFO or a directory)".into());
     }
-    let mut bytes = Vec::new();
-    file.take(MAX_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| e.to_string())?;
-    if bytes.len() as u64 > MAX_BYTES {
-        return Err(format!(
-            "larger than {} MiB: not a mechanism part",
-            MAX_BYTES >> 20
-        ));
-    }
-    Ok(bytes)
+    crate::input_file::read_at_most(file, MAX_BYTES, "not a mechanism part")
 }
 
 /// A coordinate read from a file: finite, or an error naming where it is.

@@ -400,8 +400,8 @@ impl Summary {
     }
 }
 
-/// Columns of the printed table, right-aligned but the first two.
-fn write_columns(s: &mut String, rows: &[Vec<String>]) {
+/// Columns of a printed table, the first `left` left-aligned and the others right-aligned.
+pub fn write_columns(s: &mut String, rows: &[Vec<String>], left: usize) {
     let n = rows.iter().map(Vec::len).max().unwrap_or(0);
     let widths: Vec<usize> = (0..n)
         .map(|c| {
@@ -416,7 +416,7 @@ fn write_columns(s: &mut String, rows: &[Vec<String>]) {
         let mut line = String::new();
         for (c, x) in r.iter().enumerate() {
             let pad = widths[c] - x.chars().count();
-            if c < 2 {
+            if c < left {
                 line.push_str(x);
                 line.push_str(&" ".repeat(pad));
             } else {
@@ -478,7 +478,7 @@ impl fmt::Display for Summary {
                 o.show(o.max),
             ]);
         }
-        write_columns(&mut s, &rows);
+        write_columns(&mut s, &rows, 2);
         for o in &self.outputs {
             if let Some(os) = &o.out_of_spec {
                 let limit = |v: Option<f64>, none: &str| v.map_or(none.into(), |v| o.show(v));

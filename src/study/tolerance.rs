@@ -175,7 +175,6 @@ impl Parameter {
         if let Some(d) = &self.drawing {
             return (d.nominal - d.minus, d.nominal + d.plus);
         }
-        let phi = |z: f64| statrs::function::erf::erfc(-z / std::f64::consts::SQRT_2) / 2.0;
         match self.distribution {
             Distribution::Normal { mean, sd } => (mean - sigmas * sd, mean + sigmas * sd),
             Distribution::TruncatedNormal {
@@ -190,8 +189,8 @@ impl Parameter {
             Distribution::Uniform { lower, upper }
             | Distribution::Triangular { lower, upper, .. } => (lower, upper),
             Distribution::Lognormal { .. } => (
-                self.distribution.quantile(phi(-sigmas)),
-                self.distribution.quantile(phi(sigmas)),
+                self.distribution.from_standard(-sigmas),
+                self.distribution.from_standard(sigmas),
             ),
             Distribution::Fixed(x) => (x, x),
         }
