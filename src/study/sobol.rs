@@ -2,48 +2,36 @@
 //! state), so that sample i's point depends only on (seed, i).
 //!
 //! Direction numbers: Joe & Kuo, "Constructing Sobol sequences with better two-dimensional
-//! projections", SIAM J. Sci. Comput. 30 (2008), file new-joe-kuo-6.21201, dimensions 2–32
-//! (dimension 1 is the van der Corput sequence). Scrambling: Burley, "Practical hash-based
-//! Owen scrambling", JCGT 9(4) 2020: a nested uniform scramble from a Laine–Karras hash of
-//! the bit-reversed coordinate.
+//! projections", SIAM J. Sci. Comput. 30 (2008), file new-joe-kuo-6.21201, dimensions 2–256
+//! (`new-joe-kuo-6.256.txt`; dimension 1 is the van der Corput sequence). Scrambling:
+//! Burley, "Practical hash-based Owen scrambling", JCGT 9(4) 2020: a nested uniform
+//! scramble from a Laine–Karras hash of the bit-reversed coordinate.
 
-/// (s, a, m_1..m_s) of dimensions 2..=32.
-const JOE_KUO: [(u32, u32, &[u32]); 31] = [
-    (1, 0, &[1]),
-    (2, 1, &[1, 3]),
-    (3, 1, &[1, 3, 1]),
-    (3, 2, &[1, 1, 1]),
-    (4, 1, &[1, 1, 3, 3]),
-    (4, 4, &[1, 3, 5, 13]),
-    (5, 2, &[1, 1, 5, 5, 17]),
-    (5, 4, &[1, 1, 5, 5, 5]),
-    (5, 7, &[1, 1, 7, 11, 19]),
-    (5, 11, &[1, 1, 5, 1, 1]),
-    (5, 13, &[1, 1, 1, 3, 11]),
-    (5, 14, &[1, 3, 5, 5, 31]),
-    (6, 1, &[1, 3, 3, 9, 7, 49]),
-    (6, 13, &[1, 1, 1, 15, 21, 21]),
-    (6, 16, &[1, 3, 1, 13, 27, 49]),
-    (6, 19, &[1, 1, 1, 15, 7, 5]),
-    (6, 22, &[1, 3, 1, 15, 13, 25]),
-    (6, 25, &[1, 1, 5, 5, 19, 61]),
-    (7, 1, &[1, 3, 7, 11, 23, 15, 103]),
-    (7, 4, &[1, 3, 7, 13, 13, 15, 69]),
-    (7, 7, &[1, 1, 3, 13, 7, 35, 63]),
-    (7, 8, &[1, 3, 5, 9, 1, 25, 53]),
-    (7, 14, &[1, 3, 1, 13, 9, 35, 107]),
-    (7, 19, &[1, 3, 1, 5, 27, 61, 31]),
-    (7, 21, &[1, 1, 5, 11, 19, 41, 61]),
-    (7, 28, &[1, 3, 5, 3, 3, 13, 69]),
-    (7, 31, &[1, 1, 7, 13, 1, 19, 1]),
-    (7, 32, &[1, 3, 7, 5, 13, 19, 59]),
-    (7, 37, &[1, 1, 3, 9, 25, 29, 41]),
-    (7, 41, &[1, 3, 5, 13, 23, 1, 55]),
-    (7, 42, &[1, 3, 7, 3, 13, 59, 17]),
-];
+use std::sync::OnceLock;
+
+/// The published table: one row per dimension from 2 on.
+const JOE_KUO_TABLE: &str = include_str!("new-joe-kuo-6.256.txt");
+
+/// (s, a, m_1..m_s) of each dimension from 2 on, read once from the table.
+fn joe_kuo() -> &'static [(u32, u32, Vec<u32>)] {
+    static ROWS: OnceLock<Vec<(u32, u32, Vec<u32>)>> = OnceLock::new();
+    ROWS.get_or_init(|| {
+        JOE_KUO_TABLE
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+            .map(|l| {
+                let n: Vec<u32> = l
+                    .split_whitespace()
+                    .map(|x| x.parse().expect("the bundled table holds integers"))
+                    .collect();
+                (n[1], n[2], n[3..].to_vec())
+            })
+            .collect()
+    })
+}
 
 /// The largest dimension available.
-pub const MAX_DIMENSION: usize = JOE_KUO.len() + 1;
+pub const MAX_DIMENSION: usize = 256;
 
 /// Direction numbers v_1..v_32 (left-aligned in 32 bits) of dimension `dim` (from 0).
 fn directions(dim: usize) -> [u32; 32] {
@@ -54,8 +42,8 @@ fn directions(dim: usize) -> [u32; 32] {
         }
         return v;
     }
-    let (s, a, m) = JOE_KUO[dim - 1];
-    let s = s as usize;
+    let (s, a, m) = &joe_kuo()[dim - 1];
+    let (s, a) = (*s as usize, *a);
     for k in 0..s.min(32) {
         v[k] = m[k] << (31 - k);
     }
@@ -133,6 +121,28 @@ impl ScrambledSobol {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The table holds every dimension up to `MAX_DIMENSION`, each row with as many initial
+    /// numbers as its degree, each m_k odd and below 2^k (what makes the directions valid);
+    /// its first and last rows are those of the published file.
+    #[test]
+    fn the_direction_table_is_whole() {
+        let rows = joe_kuo();
+        assert_eq!(rows.len() + 1, MAX_DIMENSION);
+        for (d, (s, a, m)) in rows.iter().enumerate() {
+            assert_eq!(m.len(), *s as usize, "dimension {}", d + 2);
+            assert!(*a < 1 << (s - 1).max(1), "dimension {}", d + 2);
+            for (k, &mk) in m.iter().enumerate() {
+                assert!(mk % 2 == 1 && mk < 1 << (k + 1), "dimension {}", d + 2);
+            }
+        }
+        assert_eq!(rows[0], (1, 0, vec![1]));
+        assert_eq!(rows[30], (7, 42, vec![1, 3, 7, 3, 13, 59, 17]));
+        assert_eq!(
+            rows[254],
+            (11, 560, vec![1, 1, 1, 5, 19, 3, 53, 133, 97, 863, 983])
+        );
+    }
 
     #[test]
     fn unscrambled_points_match_the_published_sequence() {
