@@ -4,7 +4,10 @@
 //! block diagonal). Criterion reports time per step. Run: `cargo bench --bench contacts`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mc_study::extremes::box_stack;
+#[path = "../tests/harness/extremes.rs"]
+mod extremes;
+
+use extremes::box_stack;
 use mc_study::scene::Scene;
 use std::hint::black_box;
 

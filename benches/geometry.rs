@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use mc_study::mechanics::contact::convex::ConvexPart;
 use mc_study::mechanics::contact::mesh::MeshPart;
-use mc_study::mechanics::contact::profile::{Piece, Profile, Solid};
+use mc_study::mechanics::contact::profile::{Outline, Piece, Solid};
 use mc_study::mechanics::{ContactPair, Pose, Primitive};
 use mc_study::scene::Scene;
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
@@ -35,7 +35,7 @@ fn latch() -> Primitive {
     ];
     let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
     Primitive::Profile(Box::new(
-        Profile::new(
+        Outline::new(
             Vector3::zeros(),
             axes,
             0.01,

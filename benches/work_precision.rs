@@ -8,7 +8,7 @@
 use mc_study::integrator::Scheme;
 use mc_study::report::figures::{save, WorkPrecisionFigure};
 use mc_study::scene::Scene;
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 use std::path::Path;
 use std::time::Instant;
 

@@ -3,7 +3,7 @@
 //! `evaluate` calls it; prints the seconds per row. Usage:
 //! `cargo run --release --example evaluate_rows -- SCENE X.bin PATH...`
 
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 use std::time::Instant;
 
 fn main() {

@@ -1,8 +1,11 @@
-//! The full stability-at-the-extremes matrix (`mc_study::extremes`), printed as the Markdown
-//! table of the README: `cargo run --release --example extremes`. `tests/extremes.rs` runs
+//! The full stability-at-the-extremes matrix (`tests/harness/extremes.rs`), printed as the
+//! Markdown table of docs/extremes.md: `cargo run --release --example extremes`. `tests/extremes.rs` runs
 //! a smaller matrix in CI.
 
-use mc_study::extremes::{self, Case};
+#[path = "../tests/harness/extremes.rs"]
+mod extremes;
+
+use extremes::Case;
 
 fn main() {
     let mut cases: Vec<Case> = Vec::new();

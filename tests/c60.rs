@@ -3,7 +3,7 @@
 //! the step; the clearance model tends to the ideal mechanism as the clearances vanish; the
 //! ±3σ clearance extremes run through.
 
-use mc_study::study::subject::{Outcome, Subject};
+use mc_study::study::sample_run::{Outcome, Subject};
 use std::path::Path;
 
 const JOINTS: [&str; 7] = ["J1", "J2", "J3", "J4", "J5", "J6", "J7"];

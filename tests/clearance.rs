@@ -690,6 +690,7 @@ fn a_journal_pinched_between_its_rings_projects_without_swinging_the_bar() {
         1e-10,
         20,
         None,
+        &mut Default::default(),
     );
     let journal = poses[0].point(&journal_local);
     let across = (journal - Vector3::y() * journal.y).norm();

@@ -6,7 +6,8 @@
 
 mod common;
 
-use mc_study::extremes;
+#[path = "harness/extremes.rs"]
+mod extremes;
 use mc_study::integrator::{Scheme, Simulation};
 
 /// The pendulum of the coarse-step extremes cells (`extremes::coarse_clearance_pendulum`),

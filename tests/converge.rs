@@ -3,7 +3,7 @@
 //! run, and the recommendation is the cheapest rung under the target.
 
 use mc_study::study::converge::{sweep, Fidelity, Ladder};
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 use mc_study::study::Study;
 mod common;
 

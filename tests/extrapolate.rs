@@ -4,9 +4,9 @@
 //! reproduces the two plain runs exactly, and neither the plain runs nor the extrapolated
 //! ones keep the first-order error that a contact law on start-of-step rows leaves there.
 
-use mc_study::probe_run::run_probes;
+use mc_study::probe::run::run_probes;
 use mc_study::scene::Scene;
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 
 /// The pendulum with its refinement window from the first contact of the pivot, at step
 /// `window`; probes: the times the bar's free end first passes below the pivot, going

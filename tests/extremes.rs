@@ -1,9 +1,12 @@
-//! Stability at the extremes at a size CI affords (`mc_study::extremes`; the full matrix is
-//! `cargo run --release --example extremes`, its table in the README). Every cell must run
+//! Stability at the extremes at a size CI affords (`harness/extremes.rs`; the full matrix
+//! is `cargo run --release --example extremes`, its table in docs/extremes.md). Every cell must run
 //! to its end without NaN or modelling error, with penetration and joint violation within
 //! 1e-9 m and no energy growth beyond what the physics allows.
 
-use mc_study::extremes::{self, Case, Cell};
+#[path = "harness/extremes.rs"]
+mod extremes;
+
+use extremes::{Case, Cell};
 
 fn check(cases: Vec<Case>) -> Vec<Cell> {
     let cells: Vec<Cell> = cases.into_iter().map(Case::run).collect();

@@ -5,9 +5,9 @@
 mod common;
 
 use common::scratch;
-use mc_study::expr::Expr;
+use mc_study::input::expr::Expr;
 use mc_study::scene::Scene;
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 use mc_study::study::Study;
 use proptest::prelude::*;
 use std::path::Path;

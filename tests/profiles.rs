@@ -351,7 +351,7 @@ probes:
 /// open one as a polyline.
 #[test]
 fn drawings_show_profiles() {
-    use mc_study::drawing::{svg, Snapshot, View};
+    use mc_study::single_run::drawing::{svg, Snapshot, View};
     let scene = cam_follower(1.0);
     let poses: Vec<_> = scene.model.bodies.iter().map(|b| b.pose).collect();
     let text = svg(&scene.model, &[Snapshot { t: 0.0, poses }], View::Xy, "cam");

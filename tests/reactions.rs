@@ -1,7 +1,7 @@
 //! Joint reactions against closed forms and statics, and the convergence in h of the
 //! window-mean reaction of a rattling clearance joint.
 
-use mc_study::probe_run::run_probes;
+use mc_study::probe::run::run_probes;
 use mc_study::scene::Scene;
 
 /// The probe values of `scene` run to its end.

@@ -1,7 +1,7 @@
 //! FC3D solver oracles: random well-posed instances, the exact stick/slip threshold of one
 //! contact, and the frictionless case against an enumerated LCP solution.
 
-use mc_study::solver::{natural_map_error, solve_fc3d, Fc3d, NsgsOptions};
+use mc_study::solver::{natural_map_error, solve_fc3d, Fc3d, NsgsOptions, SolverStorage};
 use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -89,6 +89,7 @@ fn random_instances_reach_the_tolerance() {
                 },
                 &mut r,
                 &opts,
+                &mut SolverStorage::default(),
             );
             let err = natural_map_error(
                 &Fc3d {
@@ -126,6 +127,7 @@ fn single_contact_stick_slip_threshold_is_exact() {
             },
             &mut r,
             &NsgsOptions::default(),
+            &mut SolverStorage::default(),
         );
         assert!(st.converged);
         (r.clone(), &w * &r + &q)
@@ -157,6 +159,7 @@ fn single_contact_stick_slip_threshold_is_exact() {
         },
         &mut r,
         &NsgsOptions::default(),
+        &mut SolverStorage::default(),
     );
     assert_eq!(r, DVector::zeros(3));
 }
@@ -203,6 +206,7 @@ fn frictionless_case_equals_the_lcp_solution() {
                 max_sweeps: 5000,
                 ..Default::default()
             },
+            &mut SolverStorage::default(),
         );
         assert!(st.converged);
         let wn = DMatrix::from_fn(n, n, |a, b| w[(3 * a, 3 * b)]);
@@ -245,7 +249,8 @@ fn proximal_newton_solves_coincident_contacts_to_the_closed_form() {
             mu: &mus,
         };
         let mut r = DVector::from_vec(vec![5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
-        proximal_newton(&p, &BlockPattern::of(&w), &mut r, 1e-10, 50).expect("converges");
+        let storage = &mut Default::default();
+        proximal_newton(&p, &BlockPattern::of(&w), &mut r, 1e-10, 50, storage).expect("converges");
         assert!(natural_map_error(&p, &r) <= 1e-10);
         check_solution(&w, &q, &mus, &r, 1e-8);
         let total = [r[0] + r[3], r[1] + r[4], r[2] + r[5]];
@@ -291,7 +296,7 @@ fn global_newton_solves_a_shuffled_chain_in_its_own_order() {
     let chain_mu: Vec<f64> = (0..n).map(|_| rng.random_range(0.1..0.8)).collect();
     let order_of = |w: &DMatrix<f64>| {
         let mut order = Vec::new();
-        BlockPattern::of(w).minimum_degree_into(&mut order);
+        BlockPattern::of(w).minimum_degree_into(&mut order, &mut Default::default());
         order
     };
     assert_eq!(order_of(&chain_w), (0..n).collect::<Vec<_>>());
@@ -305,7 +310,8 @@ fn global_newton_solves_a_shuffled_chain_in_its_own_order() {
     let solve = |w: &DMatrix<f64>, q: &DVector<f64>, mu: &[f64]| {
         let mut r = DVector::zeros(m);
         let p = Fc3d { w, q, mu };
-        global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 100).expect("converges");
+        let storage = &mut Default::default();
+        global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 100, storage).expect("converges");
         check_solution(w, q, mu, &r, 1e-9);
         r
     };

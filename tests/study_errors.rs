@@ -157,7 +157,7 @@ fn wrong_units_unknown_design_and_unknown_keys() {
 /// unknown preset names the field and the line.
 #[test]
 fn fidelity_presets_and_an_unknown_preset() {
-    use mc_study::study::subject::Subject;
+    use mc_study::study::sample_run::Subject;
     let load = |tag: &str, to: &str| {
         let text = std::fs::read_to_string(study_path("bouncing-ball", "study.yaml")).unwrap();
         let scene = study_path("bouncing-ball", "scene.yaml");

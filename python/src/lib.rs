@@ -3,10 +3,10 @@
 //! API (docs/python.md); the engine's errors become `McStudyError` with the same messages.
 
 use mc_study::commands::MAX_THREADS;
-use mc_study::simulate::{simulate as simulate_scene, SimulateOptions};
+use mc_study::single_run::{simulate as simulate_scene, SimulateOptions};
 use mc_study::study::merge::merge;
 use mc_study::study::runner::{self, RunOptions, Shard};
-use mc_study::study::subject::Subject;
+use mc_study::study::sample_run::Subject;
 use mc_study::study::Study;
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
@@ -86,7 +86,7 @@ impl PyScene {
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
         let source = path.display().to_string();
-        let text = mc_study::input_file::read(&path)
+        let text = mc_study::input::file::read(&path)
             .map_err(|e| error(format!("{source}: cannot read the scene file: {e}")))?;
         Ok(PyScene {
             subject: Subject::from_yaml(&text, &source).map_err(error)?,

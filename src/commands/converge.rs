@@ -2,27 +2,42 @@
 
 use super::thread_pool;
 use crate::study::converge::{sigma_of, sweep, Fidelity, Ladder};
-use crate::study::subject::Subject;
+use crate::study::sample_run::Subject;
 use crate::study::summary::Summary;
 use crate::study::Study;
 use anyhow::{bail, Context, Result};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// `mc-study converge` arguments.
-pub struct ConvergeArgs<'a> {
-    pub study: &'a Path,
-    pub out: Option<&'a PathBuf>,
+#[derive(clap::Args, Debug)]
+pub struct ConvergeArgs {
+    /// Study YAML file.
+    pub study: PathBuf,
+    /// Where converge.csv and the plot go (default: <study output>/converge).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Design samples besides the nominal one.
+    #[arg(long, default_value_t = 3)]
     pub samples: u64,
-    pub results: Option<&'a PathBuf>,
+    /// Result directory whose summary.json gives the Monte-Carlo σ of each output.
+    #[arg(long)]
+    pub results: Option<PathBuf>,
+    /// Largest accepted error: a fraction of σ (default 0.01), or of |reference| when
+    /// no σ is known (then default 1e-3).
+    #[arg(long)]
     pub target: Option<f64>,
-    pub hs: &'a [f64],
+    /// Step sizes to try instead of the default ladder, e.g. `1e-4,5e-5,2e-5`.
+    #[arg(long = "h", value_delimiter = ',')]
+    pub hs: Vec<f64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
     pub threads: Option<usize>,
 }
 
 /// `mc-study converge`: the ladder's table, converge.csv, the work–precision plot and
 /// the recommended fidelity.
-pub fn converge(args: ConvergeArgs) -> Result<()> {
-    let study = Study::load(args.study, None)?;
+pub fn converge(args: &ConvergeArgs) -> Result<()> {
+    let study = Study::load(&args.study, None)?;
     let Subject::Mechanism(scene) = &study.subject else {
         bail!("converge needs a mechanism scene: a function scene has no fidelity to vary");
     };
@@ -42,7 +57,7 @@ pub fn converge(args: ConvergeArgs) -> Result<()> {
     }
     let results_dir = args
         .results
-        .cloned()
+        .clone()
         .unwrap_or_else(|| study.output_dir.clone());
     let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
     let summary = Summary::load(&results_dir)?;
@@ -71,7 +86,7 @@ pub fn converge(args: ConvergeArgs) -> Result<()> {
     }
     let dir = args
         .out
-        .cloned()
+        .clone()
         .unwrap_or_else(|| study.output_dir.join("converge"));
     check_converge_out(&dir)?;
     let total = (ladder.fidelities.len() + 1) as u64 * (1 + args.samples.min(study.runs()));

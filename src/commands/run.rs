@@ -7,30 +7,56 @@ use crate::study::runner::{self, RunOptions, Shard};
 use crate::study::stop_signals::StopSignals;
 use crate::study::Study;
 use anyhow::{bail, Result};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// `mc-study run` arguments.
+#[derive(clap::Args, Debug)]
 pub struct RunArgs {
+    /// Study YAML file (see studies/*/study.yaml).
+    pub study: PathBuf,
+    /// Number of samples N (overrides `samples`; for `saltelli` the base rows).
+    #[arg(long)]
     pub samples: Option<u64>,
+    /// Output directory (overrides the study's `output`; default results/<study name>).
+    /// It must be new, empty, or a result directory of the same study.
+    #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Worker threads, 1 to 4096 (default: all cores).
+    #[arg(long)]
     pub threads: Option<usize>,
-    pub shard: Option<Shard>,
+    /// Run only shard I of N (`I/N`); `/N` takes I from SLURM_ARRAY_TASK_ID.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Same as `--shard /N`.
+    #[arg(long, conflicts_with = "shard")]
+    pub shards: Option<u64>,
+    /// No progress bar or progress lines.
+    #[arg(long)]
     pub quiet: bool,
+    /// Samples per part file: a crash loses at most the samples not yet in a part.
+    #[arg(long, default_value_t = 1024)]
     pub part_rows: usize,
+    /// Seconds after which a part is written even if not full (`inf`: only when full).
+    #[arg(long, default_value_t = 30.0)]
     pub part_seconds: f64,
 }
 
 /// Runs a study; `Ok(Some(status))` when a stop signal came (the samples done are saved).
-pub fn run(study: &Path, args: RunArgs) -> Result<Option<u8>> {
-    let study = Study::load(study, args.samples)?;
+pub fn run(args: &RunArgs) -> Result<Option<u8>> {
+    let shard = match (&args.shard, args.shards) {
+        (Some(s), _) => Some(Shard::parse(s)?),
+        (None, Some(n)) => Some(Shard::parse(&format!("/{n}"))?),
+        (None, None) => None,
+    };
+    let study = Study::load(&args.study, args.samples)?;
     check_threads(args.threads)?;
     if args.part_rows == 0 || args.part_seconds.is_nan() || args.part_seconds <= 0.0 {
         bail!("--part-rows and --part-seconds must be positive");
     }
-    let out = args.out.unwrap_or_else(|| study.output_dir.clone());
+    let out = args.out.clone().unwrap_or_else(|| study.output_dir.clone());
     let mut opts = RunOptions::new(out.clone());
     opts.threads = args.threads;
-    opts.shard = args.shard.unwrap_or(Shard::WHOLE);
+    opts.shard = shard.unwrap_or(Shard::WHOLE);
     opts.progress = !args.quiet;
     opts.rows_per_part = args.part_rows;
     opts.seconds_per_part = args.part_seconds;

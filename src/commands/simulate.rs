@@ -1,32 +1,50 @@
 //! `mc-study simulate`: loads a scene, applies `--set`, runs it and prints its report.
 
-use crate::scene::units::{parse_quantity, Dim};
+use crate::input::units::{parse_quantity, Dim};
 use crate::scene::Scene;
-use crate::simulate::{simulate, DrawingRequest, SimulateOptions};
+use crate::single_run::{simulate, DrawingRequest, SimulateOptions};
 use anyhow::{bail, Result};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// `mc-study simulate` arguments.
-pub struct SimulateArgs<'a> {
-    pub scene: &'a Path,
-    pub out: Option<&'a PathBuf>,
+#[derive(clap::Args, Debug)]
+pub struct SimulateArgs {
+    /// Scene YAML file (see studies/*/scene.yaml).
+    pub scene: PathBuf,
+    /// Trajectory output: .csv or .parquet (t, energy, each body's pose and twist, each
+    /// contact's gap and impulse). Nothing is written without it.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Override the scene's duration, in seconds.
+    #[arg(long)]
     pub duration: Option<f64>,
-    pub sets: &'a [String],
-    pub svg: Option<&'a PathBuf>,
-    pub snapshots: &'a [String],
-    pub view: &'a str,
+    /// Set a scene parameter before the run, as a study would: PATH=VALUE, the value in
+    /// SI or with a unit, e.g. `--set joints.J3.clearance=0.1mm`. Repeatable.
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub sets: Vec<String>,
+    /// Draw the mechanism at the `--snapshots` times, side by side, into this SVG file
+    /// (bodies as their inertia boxes, contact shapes, bores and journals; mm).
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Times of the drawn configurations, comma-separated, e.g. `2ms,8ms` (default:
+    /// the start and the end of the run).
+    #[arg(long, value_delimiter = ',')]
+    pub snapshots: Vec<String>,
+    /// Projection plane of the drawing: xy (default), xz or yz.
+    #[arg(long, default_value = "xy")]
+    pub view: String,
 }
 
 /// `mc-study simulate`: one run of a scene, its report, and the files asked for.
-pub fn simulate_command(args: SimulateArgs) -> Result<()> {
-    let mut scene = Scene::load(args.scene)?;
-    for s in args.sets {
+pub fn simulate_command(args: &SimulateArgs) -> Result<()> {
+    let mut scene = Scene::load(&args.scene)?;
+    for s in &args.sets {
         check_unit(&scene, s)?;
         scene
             .apply_setting(s)
             .map_err(|e| anyhow::anyhow!("--set {e}"))?;
     }
-    if let Some(p) = args.out {
+    if let Some(p) = &args.out {
         let ext = p.extension().and_then(|e| e.to_str());
         if !matches!(ext, Some("csv" | "parquet")) {
             bail!("--out must end in .csv or .parquet");
@@ -39,9 +57,9 @@ pub fn simulate_command(args: SimulateArgs) -> Result<()> {
         Some(d) => d,
         None => scene.duration,
     };
-    let drawing = match args.svg {
+    let drawing = match &args.svg {
         Some(svg) => Some(
-            DrawingRequest::parse(svg.clone(), args.snapshots, args.view, duration)
+            DrawingRequest::parse(svg.clone(), &args.snapshots, &args.view, duration)
                 .map_err(anyhow::Error::msg)?,
         ),
         None if !args.snapshots.is_empty() => bail!("--snapshots needs --svg FILE"),
@@ -49,7 +67,7 @@ pub fn simulate_command(args: SimulateArgs) -> Result<()> {
     };
     let options = SimulateOptions {
         duration: Some(duration),
-        trajectory: args.out.cloned(),
+        trajectory: args.out.clone(),
         drawing,
     };
     let report = simulate(&scene, &args.scene.display().to_string(), &options)?;

@@ -4,15 +4,60 @@ use crate::study::manifest::Manifest;
 use crate::study::slurm::{sbatch, write_scripts, SlurmOptions};
 use crate::study::Study;
 use anyhow::{bail, Context, Result};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-/// `mc-study slurm`: writes the array and merge scripts and, with `submit`, submits them.
-pub fn slurm(
-    study_path: &Path,
-    out: Option<&PathBuf>,
-    mut o: SlurmOptions,
-    submit: bool,
-) -> Result<()> {
+/// `mc-study slurm` arguments.
+#[derive(clap::Args, Debug)]
+pub struct SlurmArgs {
+    /// Study YAML file.
+    pub study: PathBuf,
+    /// Number of array tasks N (shards).
+    #[arg(long)]
+    pub tasks: u64,
+    /// Output directory shared by all tasks (default: the study's `output`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Number of samples (overrides the study's `samples`).
+    #[arg(long)]
+    pub samples: Option<u64>,
+    /// Slurm partition.
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit per task (Slurm format, e.g. 02:00:00).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// CPUs per task; each task runs that many worker threads (default 1).
+    #[arg(long)]
+    pub cpus_per_task: Option<u32>,
+    /// Memory per task (Slurm format, e.g. 2G).
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// Slurm account to charge.
+    #[arg(long)]
+    pub account: Option<String>,
+    /// Samples per part file written by the tasks (default 1024; smaller loses less
+    /// when a task is killed or preempted).
+    #[arg(long)]
+    pub part_rows: Option<usize>,
+    /// Submit the array and the merge job with sbatch and print their ids.
+    #[arg(long)]
+    pub submit: bool,
+}
+
+/// `mc-study slurm`: writes the array and merge scripts and, with `--submit`, submits
+/// them.
+pub fn slurm(args: &SlurmArgs) -> Result<()> {
+    let mut o = SlurmOptions {
+        tasks: args.tasks,
+        partition: args.partition.clone(),
+        time: args.time.clone(),
+        cpus_per_task: args.cpus_per_task,
+        mem: args.mem.clone(),
+        account: args.account.clone(),
+        samples: args.samples,
+        part_rows: args.part_rows,
+    };
+    let (study_path, submit) = (&args.study, args.submit);
     let study = Study::load(study_path, o.samples)?;
     if o.tasks == 0 || o.tasks > study.runs() {
         bail!(
@@ -24,7 +69,7 @@ pub fn slurm(
     if o.part_rows == Some(0) {
         bail!("--part-rows must be ≥ 1");
     }
-    let out = std::path::absolute(out.unwrap_or(&study.output_dir))?;
+    let out = std::path::absolute(args.out.as_ref().unwrap_or(&study.output_dir))?;
     crate::study::runner::check_out(&out)?;
     if crate::study::manifest::path(&out).exists() {
         Manifest::load(&out)?.check_same_study(&study.hash(), &out)?;

@@ -11,13 +11,13 @@
 //! constraints of the same rows with the drives' rates and the `initial` rates:
 //! v ← v − M⁻¹Hᵀ (H M⁻¹ Hᵀ)⁻¹ (H v − b), the smallest change in kinetic energy.
 
-use super::projection::{inverse_mass, project, ContactRows};
+use super::projection::{inverse_mass, project, ContactRows, ProjectionStorage};
 use super::rows;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::joint::{BilateralRow, Drive, Joint, JointKind, RowUnit, ScalarProfile};
 use crate::mechanics::{Model, Motion, Pose};
 use crate::solver::EqualitySolver;
-use nalgebra::Vector3;
+use nalgebra::{DVector, Matrix6, Vector3};
 use std::fmt;
 
 /// The joint-space initial condition of an ideal joint (from its `initial` block): its
@@ -172,55 +172,10 @@ pub fn assemble(
     let written: Vec<Pose> = model.bodies.iter().map(|b| b.pose).collect();
     let mask = model.dof_mask();
     let minv = inverse_mass(model, &mask);
-    let mut poses = written.clone();
     let mut assembly = Assembly::default();
-
-    // positions, by continuation towards the initial coordinates
-    let position_joints = holding(model, targets, &written, false);
-    // a joint held at a start value, and how far that is from the written configuration
-    let start_of = |j: &Joint| match &j.drive {
-        Some(Drive::Position(ScalarProfile::Rate { start, rate })) => {
-            Some((*start, *rate, j.coordinate(&written)))
-        }
-        _ => None,
-    };
-    let far = position_joints
-        .iter()
-        .filter(|j| j.kind != JointKind::Prismatic)
-        .filter_map(|j| start_of(j).map(|(start, _, from)| (start - from).abs()))
-        .fold(0.0f64, f64::max);
-    let stages = (far / STAGE).ceil().max(1.0) as usize;
-    let mut staged = model.clone();
-    staged.contacts.clear();
-    staged.clearance_joints.clear();
-    for stage in 1..=stages {
-        let s = stage as f64 / stages as f64;
-        staged.joints = position_joints
-            .iter()
-            .map(|j| match start_of(j) {
-                Some((start, rate, from)) if stage < stages => {
-                    held(j, from + s * (start - from), rate)
-                }
-                _ => j.clone(),
-            })
-            .collect();
-        let outcome = project(
-            &staged,
-            &mask,
-            &minv,
-            0.0,
-            &mut poses,
-            &|_, _| {},
-            ContactRows::Equality,
-            TOLERANCE,
-            ITERATIONS,
-            None,
-        );
-        assembly.iterations += outcome.iterations;
-        assembly.residual = outcome.violation_after;
-    }
+    let poses = positions(model, targets, &written, &minv, &mut assembly)?;
     if assembly.residual > tolerance {
-        let (rows, names) = rows(&position_joints, &poses);
+        let (rows, names) = rows(&holding(model, targets, &written, false), &poses);
         let (k, r) = rows
             .iter()
             .enumerate()
@@ -232,37 +187,8 @@ pub fn assemble(
             unit: unit(r.unit),
         });
     }
-
-    // velocities: the smallest change in kinetic energy that meets the joints' rates
-    let ndof = model.dofs();
-    let mut v = model.initial_state().v;
-    let v0 = v.clone();
-    let velocity_joints = holding(model, targets, &written, true);
-    let (rows, names) = rows(&velocity_joints, &poses);
-    if !rows.is_empty() {
-        let (h, b) = rows::matrix(&rows, &mask, ndof);
-        let mht = rows::inverse_mass_times_rows(&minv, &rows, ndof);
-        let violation = &h * &v - &b;
-        let scale = b.amax().max((&h * &v).amax());
-        if violation.amax() > 1e-14 * scale.max(f64::MIN_POSITIVE) {
-            let lambda = EqualitySolver::new(&h * &mht).solve(&violation);
-            v -= &mht * lambda;
-            let left = &h * &v - &b;
-            if let Some((k, r)) = left
-                .iter()
-                .enumerate()
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-                .filter(|(_, r)| r.abs() > 1e-9 * scale.max(1.0))
-            {
-                return Err(AssemblyError::Velocities {
-                    joint: names[k].clone(),
-                    residual: r.abs(),
-                    unit: unit(rows[k].unit),
-                });
-            }
-        }
-    }
-
+    let v0 = model.initial_state().v;
+    let v = velocities(model, targets, &written, &poses, &minv, v0.clone())?;
     for (i, body) in model.bodies.iter_mut().enumerate() {
         if body.motion == Motion::Fixed {
             continue;
@@ -288,6 +214,105 @@ pub fn assemble(
         }
     }
     Ok(assembly)
+}
+
+/// The poses that hold the joints, from the `written` ones, by continuation towards the
+/// initial coordinates; the projection's iterations and residual go into `assembly`.
+fn positions(
+    model: &Model,
+    targets: &Targets,
+    written: &[Pose],
+    minv: &[Matrix6<f64>],
+    assembly: &mut Assembly,
+) -> Result<Vec<Pose>, AssemblyError> {
+    let mask = model.dof_mask();
+    let mut poses = written.to_vec();
+    let position_joints = holding(model, targets, written, false);
+    // a joint held at a start value, and how far that is from the written configuration
+    let start_of = |j: &Joint| match &j.drive {
+        Some(Drive::Position(ScalarProfile::Rate { start, rate })) => {
+            Some((*start, *rate, j.coordinate(written)))
+        }
+        _ => None,
+    };
+    let far = position_joints
+        .iter()
+        .filter(|j| j.kind != JointKind::Prismatic)
+        .filter_map(|j| start_of(j).map(|(start, _, from)| (start - from).abs()))
+        .fold(0.0f64, f64::max);
+    let stages = (far / STAGE).ceil().max(1.0) as usize;
+    let mut staged = model.clone();
+    staged.contacts.clear();
+    staged.clearance_joints.clear();
+    let mut storage = ProjectionStorage::default();
+    for stage in 1..=stages {
+        let s = stage as f64 / stages as f64;
+        staged.joints = position_joints
+            .iter()
+            .map(|j| match start_of(j) {
+                Some((start, rate, from)) if stage < stages => {
+                    held(j, from + s * (start - from), rate)
+                }
+                _ => j.clone(),
+            })
+            .collect();
+        let outcome = project(
+            &staged,
+            &mask,
+            minv,
+            0.0,
+            &mut poses,
+            &|_, _| {},
+            ContactRows::Equality,
+            TOLERANCE,
+            ITERATIONS,
+            None,
+            &mut storage,
+        );
+        assembly.iterations += outcome.iterations;
+        assembly.residual = outcome.violation_after;
+    }
+    Ok(poses)
+}
+
+/// The initial twists: from `v`, the smallest change in kinetic energy that meets the
+/// joints' rates at `poses`.
+fn velocities(
+    model: &Model,
+    targets: &Targets,
+    written: &[Pose],
+    poses: &[Pose],
+    minv: &[Matrix6<f64>],
+    mut v: DVector<f64>,
+) -> Result<DVector<f64>, AssemblyError> {
+    let (mask, ndof) = (model.dof_mask(), model.dofs());
+    let velocity_joints = holding(model, targets, written, true);
+    let (rows, names) = rows(&velocity_joints, poses);
+    if rows.is_empty() {
+        return Ok(v);
+    }
+    let (h, b) = rows::matrix(&rows, &mask, ndof);
+    let mht = rows::inverse_mass_times_rows(minv, &rows, ndof);
+    let violation = &h * &v - &b;
+    let scale = b.amax().max((&h * &v).amax());
+    if violation.amax() > 1e-14 * scale.max(f64::MIN_POSITIVE) {
+        let lambda = EqualitySolver::new(&h * &mht).solve(&violation);
+        v -= &mht * lambda;
+        let left = &h * &v - &b;
+        if let Some((k, r)) = left
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .filter(|(_, r)| r.abs() > 1e-9 * scale.max(1.0))
+        {
+            return Err(AssemblyError::Velocities {
+                joint: names[k].clone(),
+                residual: r.abs(),
+                unit: unit(rows[k].unit),
+            });
+        }
+    }
+    Ok(v)
 }
 
 impl Assembly {

@@ -234,7 +234,7 @@ mod tests {
         for name in ["pendulum", "four-bar"] {
             let mut sim = Scene::bundled_simulation(name);
             sim.run_until(0.25, |_, _| {}).unwrap();
-            let mut vs = sim.velocity(&[]);
+            let mut vs = sim.velocity(&[], &mut Default::default());
             let t = sim.state.t + sim.h;
             let rows = sim.model.joint_rows(t, &vs.poses);
             let c = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.value));

@@ -2,10 +2,11 @@
 //! which a contact closes is redone as the part before the impact, the impact itself (a
 //! step of length 0: Moreau's impact law alone) and the rest of the step.
 
-use super::moreau_jean::{hand_back_elimination, VelocityStep};
-use super::parts::{Depth, Sum};
+use super::moreau_jean::VelocityStep;
 use super::projection::ProjectionOutcome;
 use super::simulation::{Outcome, SimError, Simulation, StepReport};
+use super::subdivision::{Depth, Sum};
+use super::workspace::StepWorkspace;
 
 /// The report of an impact (a velocity step of length 0, nothing projected).
 fn impact_report(vs: &VelocityStep) -> StepReport {
@@ -52,6 +53,7 @@ impl Simulation {
         in_step: &[usize],
         t_end: f64,
         depth: Depth,
+        ws: &mut StepWorkspace,
     ) -> Result<StepReport, SimError> {
         let (h, t_start) = (self.h, self.state.t);
         let mut sum = Sum::new(self);
@@ -67,12 +69,12 @@ impl Simulation {
             self.h = s * h;
             // a part before the impact that is not resolved either (its trial leaves a
             // bore, or its contact problem is unsolved) makes the step one to take in halves
-            let part = match self.compute() {
+            let part = match self.compute(ws) {
                 Ok(part) if !self.too_coarse(&part) => part,
                 part if !depth.may_halve() => part?,
                 _ => {
                     self.h = h;
-                    return self.halves(t_end, depth.unsplit());
+                    return self.halves(t_end, depth.unsplit(), ws);
                 }
             };
             tries += 1;
@@ -81,33 +83,14 @@ impl Simulation {
                 _ => break part,
             }
         };
-        let first = self.commit(before, t_start + s * h);
+        let first = self.commit(before, t_start + s * h, ws);
         sum.add(self);
-        // The impact, at the poses it happens at, on the contacts that take it together, as
-        // Moreau's law has them: those touching then (a gap no wider than the impacting
-        // contact's, plus the activation margin), those of the part before, and those of the
-        // whole step as the unsplit step had them (`in_step`: the two rings of a journal
-        // swinging in its plane, a box's corners; taken one after the other, with e = 0,
-        // they lose other momenta), with the guards that stop a journal the blow drives
-        // across its clearance. A contact this impact knocks shut is not among them: it
-        // takes its own impact in the rest of the step (a row of balls passes the blow on
-        // one ball at a time).
         self.h = 0.0;
-        let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
-        let mut member = vec![false; self.points.len()];
-        in_step.iter().for_each(|&k| member[k] = true);
-        self.active
-            .iter()
-            .for_each(|&k| member[k] |= !self.is_guard(k));
-        let active: Vec<usize> = (0..self.points.len())
-            .filter(|&k| {
-                member[k] || k == i || (!self.is_guard(k) && self.points[k].gap() <= margin)
-            })
-            .collect();
-        let mut vs = self.velocity(&active);
-        // nothing is projected at the impact: the elimination's storage back to the thread,
+        let active = self.impact_contacts(i, in_step);
+        let mut vs = self.velocity(&active, &mut ws.velocity);
+        // nothing is projected at the impact: the elimination goes back to the workspace,
         // for the velocity steps of the rest of the step
-        hand_back_elimination(vs.elimination.take());
+        ws.velocity.step.keep_elimination(vs.elimination.take());
         if vs.v.iter().any(|x| !x.is_finite()) {
             return Err(SimError::NonFinite {
                 t: self.state.t,
@@ -119,9 +102,10 @@ impl Simulation {
         sum.add(self);
         let impact = impact_report(&vs);
         self.active = active;
-        self.state.v = vs.v;
+        std::mem::swap(&mut self.state.v, &mut vs.v);
+        ws.velocity.step.keep_spent(vs);
         self.h = (1.0 - s) * h;
-        let mut report = self.advance(t_end, depth)?;
+        let mut report = self.advance(t_end, depth, ws)?;
         sum.add(self);
         sum.store(self);
         self.h = h;
@@ -130,5 +114,28 @@ impl Simulation {
         }
         self.stats.impact_splits += 1;
         Ok(report)
+    }
+
+    /// The contacts that take the impact of contact `i` together, at the poses it happens
+    /// at, as Moreau's law has them: those touching then (a gap no wider than the impacting
+    /// contact's, plus the activation margin), those of the part before, and those of the
+    /// whole step as the unsplit step had them (`in_step`: the two rings of a journal
+    /// swinging in its plane, a box's corners; taken one after the other, with e = 0, they
+    /// lose other momenta), with the guards that stop a journal the blow drives across its
+    /// clearance. A contact this impact knocks shut is not among them: it takes its own
+    /// impact in the rest of the step (a row of balls passes the blow on one ball at a
+    /// time).
+    fn impact_contacts(&self, i: usize, in_step: &[usize]) -> Vec<usize> {
+        let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
+        let mut member = vec![false; self.points.len()];
+        in_step.iter().for_each(|&k| member[k] = true);
+        self.active
+            .iter()
+            .for_each(|&k| member[k] |= !self.is_guard(k));
+        (0..self.points.len())
+            .filter(|&k| {
+                member[k] || k == i || (!self.is_guard(k) && self.points[k].gap() <= margin)
+            })
+            .collect()
     }
 }

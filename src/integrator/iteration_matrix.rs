@@ -13,7 +13,7 @@
 use crate::math::blocks::vector6_at;
 use crate::math::skew;
 use crate::mechanics::body::{holds_none, moves, Twist};
-use crate::mechanics::force::RotationBlock;
+use crate::mechanics::force::{Force, RotationBlock};
 use crate::mechanics::{Model, Pose};
 use nalgebra::{DMatrix, DVector, Dyn, Matrix6, SMatrix, StorageMut, Vector};
 
@@ -170,6 +170,183 @@ fn component_roots(n: usize, pairs: impl Iterator<Item = (usize, usize)>) -> Vec
     (0..n).map(|i| root(&mut parent, i)).collect()
 }
 
+/// Where the force blocks of W are formed: the model, its moving degrees of freedom, the
+/// Newton iterate (t, poses, twists), and the weights of ∂F/∂v (hθ) and ∂F/∂q (h²θ²).
+struct FormedAt<'a> {
+    model: &'a Model,
+    mask: &'a [bool],
+    t: f64,
+    poses: &'a [Pose],
+    twists: &'a [f64],
+    velocity_weight: f64,
+    pose_weight: f64,
+}
+
+/// Each body's diagonal block: its mass and inertia (times 1 + hθα under the settling
+/// damping α) and hθ times its gyroscopic term at the twists `v`.
+fn mass_blocks(
+    diag: &mut [Matrix6<f64>],
+    model: &Model,
+    v: &DVector<f64>,
+    h: f64,
+    theta: f64,
+    damping: f64,
+) {
+    let damped = 1.0 + h * theta * damping;
+    for (i, b) in model.bodies.iter().enumerate() {
+        let d = &mut diag[i];
+        for k in 0..3 {
+            d[(k, k)] = b.mass * damped;
+        }
+        d.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&(b.inertia * damped));
+        let om = v.fixed_rows::<3>(6 * i + 3).into_owned();
+        let gyro = skew(&om) * b.inertia - skew(&(b.inertia * om));
+        let mut rot = d.fixed_view_mut::<3, 3>(3, 3);
+        rot += gyro * (h * theta);
+    }
+}
+
+/// Closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W.
+fn add_rotation_blocks(
+    diag: &mut [Matrix6<f64>],
+    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+    blocks: &[RotationBlock],
+    mask: &[bool],
+    weight: f64,
+) {
+    for &(x, y, d) in blocks
+        .iter()
+        .filter(|b| moves(mask, b.0) && moves(mask, b.1))
+    {
+        let blk = if x == y {
+            &mut diag[x]
+        } else {
+            off_block(off, x, y)
+        };
+        let mut rot = blk.fixed_view_mut::<3, 3>(3, 3);
+        rot -= d * weight;
+    }
+}
+
+/// The blocks of the forces that depend on the poses or the velocities: in closed form
+/// where a force gives them, else by central differences.
+fn force_blocks(
+    diag: &mut [Matrix6<f64>],
+    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+    jacobian: &mut Vec<RotationBlock>,
+    at: &FormedAt,
+) {
+    let stiff = at
+        .model
+        .forces
+        .iter()
+        .filter(|f| f.depends_on_pose() || f.depends_on_velocity());
+    // force buffers and perturbed copies of the state (restored after each difference),
+    // made on the first finite difference
+    let mut scratch: Option<Differences> = None;
+    for f in stiff {
+        let mut by_pose = f.depends_on_pose();
+        let mut by_vel = f.depends_on_velocity();
+        if by_vel && f.damping_jacobian(at.poses, jacobian) {
+            add_rotation_blocks(diag, off, jacobian, at.mask, at.velocity_weight);
+            by_vel = false;
+        }
+        if by_pose && f.stiffness_jacobian(at.t, at.poses, at.twists, jacobian) {
+            add_rotation_blocks(diag, off, jacobian, at.mask, at.pose_weight);
+            by_pose = false;
+        }
+        if by_pose || by_vel {
+            difference_blocks(diag, off, f, (by_pose, by_vel), at, &mut scratch);
+        }
+    }
+}
+
+/// The blocks of force `f` by central differences in its bodies' poses (`by.0`) and
+/// twists (`by.1`), in the scratch space `scratch` (made at its first use).
+fn difference_blocks(
+    diag: &mut [Matrix6<f64>],
+    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+    f: &Force,
+    by: (bool, bool),
+    at: &FormedAt,
+    scratch: &mut Option<Differences>,
+) {
+    let (by_pose, by_vel) = by;
+    let (mask, t, poses, twists) = (at.mask, at.t, at.poses, at.twists);
+    let n = at.model.bodies.len();
+    let bodies: Vec<usize> = f
+        .bodies()
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|&i| moves(mask, i))
+        .collect();
+    let first_dof = if f.rotational_only() { 3 } else { 0 };
+    for &b in &bodies {
+        for k in (first_dof..6).filter(|&k| mask[6 * b + k]) {
+            for (wrt_pose, weight) in [(true, at.pose_weight), (false, at.velocity_weight)] {
+                if (wrt_pose && !by_pose) || (!wrt_pose && !by_vel) {
+                    continue;
+                }
+                let mut d = Twist::zeros();
+                d[k] = FD_STEP;
+                let Differences {
+                    plus: buf_p,
+                    minus: buf_m,
+                    poses: pert_poses,
+                    twists: pert_twists,
+                } = scratch.get_or_insert_with(|| Differences {
+                    plus: vec![0.0; 6 * n],
+                    minus: vec![0.0; 6 * n],
+                    poses: poses.to_vec(),
+                    twists: twists.to_vec(),
+                });
+                buf_p.fill(0.0);
+                buf_m.fill(0.0);
+                if wrt_pose {
+                    pert_poses[b] = poses[b].advanced(&d);
+                    f.apply(t, pert_poses, twists, buf_p);
+                    pert_poses[b] = poses[b].advanced(&(-d));
+                    f.apply(t, pert_poses, twists, buf_m);
+                    pert_poses[b] = poses[b];
+                } else {
+                    pert_twists[6 * b + k] = twists[6 * b + k] + FD_STEP;
+                    f.apply(t, poses, pert_twists, buf_p);
+                    pert_twists[6 * b + k] = twists[6 * b + k] - FD_STEP;
+                    f.apply(t, poses, pert_twists, buf_m);
+                    pert_twists[6 * b + k] = twists[6 * b + k];
+                }
+                for &c in &bodies {
+                    let col = (vector6_at(buf_p, 6 * c) - vector6_at(buf_m, 6 * c))
+                        * (-weight / (2.0 * FD_STEP));
+                    let blk = if c == b {
+                        &mut diag[c]
+                    } else {
+                        off_block(off, c, b)
+                    };
+                    blk.column_mut(k).add_assign(&col);
+                }
+            }
+        }
+    }
+}
+
+/// Block (i, j) with the held degrees of freedom of bodies i and j as identity rows and
+/// columns, so that their solution component is zero.
+fn clamp_held(mask: &[bool], m: &mut Matrix6<f64>, i: usize, j: usize) {
+    if holds_none(mask, i) && holds_none(mask, j) {
+        return;
+    }
+    for r in 0..6 {
+        for c in 0..6 {
+            if !mask[6 * i + r] || !mask[6 * j + c] {
+                m[(r, c)] = if i == j && r == c { 1.0 } else { 0.0 };
+            }
+        }
+    }
+}
+
 impl IterationMatrix {
     /// Assembles and factorises W at the Newton iterate (poses, v) for step h and θ, with
     /// the settling damping rate `damping` (α: ∂F/∂v = −α M); `mask` is `model.dof_mask()`.
@@ -190,142 +367,36 @@ impl IterationMatrix {
         let n = model.bodies.len();
         self.mask.clear();
         self.mask.extend_from_slice(mask);
-        self.groups.clear();
-        self.group_of.clear();
         let mut diag = std::mem::take(&mut self.diag);
         diag.clear();
         diag.resize(n, Matrix6::zeros());
         let mut off = std::mem::take(&mut self.off);
         off.clear();
         let mut jacobian = std::mem::take(&mut self.jacobian);
-        let damped = 1.0 + h * theta * damping;
-        for (i, b) in model.bodies.iter().enumerate() {
-            let d = &mut diag[i];
-            for k in 0..3 {
-                d[(k, k)] = b.mass * damped;
-            }
-            d.fixed_view_mut::<3, 3>(3, 3)
-                .copy_from(&(b.inertia * damped));
-            let om = v.fixed_rows::<3>(6 * i + 3).into_owned();
-            let gyro = skew(&om) * b.inertia - skew(&(b.inertia * om));
-            let mut rot = d.fixed_view_mut::<3, 3>(3, 3);
-            rot += gyro * (h * theta);
-        }
-        let stiff = model
-            .forces
-            .iter()
-            .filter(|f| f.depends_on_pose() || f.depends_on_velocity());
-        let twists = v.as_slice();
-        // force buffers and perturbed copies of the state (restored after each difference),
-        // made on the first finite difference
-        let mut scratch: Option<Differences> = None;
-        // closed-form rotation blocks ∂τ_x/∂(δ or ω)_y, weighted into W
-        let add_rotation_blocks = |diag: &mut [Matrix6<f64>],
-                                   off: &mut Vec<((usize, usize), Matrix6<f64>)>,
-                                   blocks: &[RotationBlock],
-                                   weight: f64| {
-            for &(x, y, d) in blocks
-                .iter()
-                .filter(|b| moves(mask, b.0) && moves(mask, b.1))
-            {
-                let blk = if x == y {
-                    &mut diag[x]
-                } else {
-                    off_block(off, x, y)
-                };
-                let mut rot = blk.fixed_view_mut::<3, 3>(3, 3);
-                rot -= d * weight;
-            }
+        mass_blocks(&mut diag, model, v, h, theta, damping);
+        let at = FormedAt {
+            model,
+            mask,
+            t,
+            poses,
+            twists: v.as_slice(),
+            velocity_weight: h * theta,
+            pose_weight: h * h * theta * theta,
         };
-        for f in stiff {
-            let mut by_pose = f.depends_on_pose();
-            let mut by_vel = f.depends_on_velocity();
-            if by_vel && f.damping_jacobian(poses, &mut jacobian) {
-                add_rotation_blocks(&mut diag, &mut off, &jacobian, h * theta);
-                by_vel = false;
-            }
-            if by_pose && f.stiffness_jacobian(t, poses, twists, &mut jacobian) {
-                add_rotation_blocks(&mut diag, &mut off, &jacobian, h * h * theta * theta);
-                by_pose = false;
-            }
-            if !by_pose && !by_vel {
-                continue;
-            }
-            let bodies: Vec<usize> = f
-                .bodies()
-                .iter()
-                .flatten()
-                .copied()
-                .filter(|&i| moves(mask, i))
-                .collect();
-            let first_dof = if f.rotational_only() { 3 } else { 0 };
-            for &b in &bodies {
-                for k in first_dof..6 {
-                    if !mask[6 * b + k] {
-                        continue;
-                    }
-                    for (wrt_pose, weight) in [(true, h * h * theta * theta), (false, h * theta)] {
-                        if (wrt_pose && !by_pose) || (!wrt_pose && !by_vel) {
-                            continue;
-                        }
-                        let mut d = Twist::zeros();
-                        d[k] = FD_STEP;
-                        let Differences {
-                            plus: buf_p,
-                            minus: buf_m,
-                            poses: pert_poses,
-                            twists: pert_twists,
-                        } = scratch.get_or_insert_with(|| Differences {
-                            plus: vec![0.0; 6 * n],
-                            minus: vec![0.0; 6 * n],
-                            poses: poses.to_vec(),
-                            twists: twists.to_vec(),
-                        });
-                        buf_p.fill(0.0);
-                        buf_m.fill(0.0);
-                        if wrt_pose {
-                            pert_poses[b] = poses[b].advanced(&d);
-                            f.apply(t, pert_poses, twists, buf_p);
-                            pert_poses[b] = poses[b].advanced(&(-d));
-                            f.apply(t, pert_poses, twists, buf_m);
-                            pert_poses[b] = poses[b];
-                        } else {
-                            pert_twists[6 * b + k] = twists[6 * b + k] + FD_STEP;
-                            f.apply(t, poses, pert_twists, buf_p);
-                            pert_twists[6 * b + k] = twists[6 * b + k] - FD_STEP;
-                            f.apply(t, poses, pert_twists, buf_m);
-                            pert_twists[6 * b + k] = twists[6 * b + k];
-                        }
-                        for &c in &bodies {
-                            let col = (vector6_at(buf_p, 6 * c) - vector6_at(buf_m, 6 * c))
-                                * (-weight / (2.0 * FD_STEP));
-                            let blk = if c == b {
-                                &mut diag[c]
-                            } else {
-                                off_block(&mut off, c, b)
-                            };
-                            blk.column_mut(k).add_assign(&col);
-                        }
-                    }
-                }
-            }
-        }
-        // held dofs: identity rows and columns, so their solution component is zero
-        let clamp = |m: &mut Matrix6<f64>, i: usize, j: usize| {
-            if holds_none(mask, i) && holds_none(mask, j) {
-                return;
-            }
-            for r in 0..6 {
-                for c in 0..6 {
-                    if !mask[6 * i + r] || !mask[6 * j + c] {
-                        m[(r, c)] = if i == j && r == c { 1.0 } else { 0.0 };
-                    }
-                }
-            }
-        };
+        force_blocks(&mut diag, &mut off, &mut jacobian, &at);
         for (i, d) in diag.iter_mut().enumerate() {
-            clamp(d, i, i);
+            clamp_held(mask, d, i, i);
         }
+        self.factorise(&diag, &off);
+        (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
+    }
+
+    /// The groups of bodies that the off-diagonal blocks `off` couple, each with its
+    /// inverse, in order of their first body.
+    fn factorise(&mut self, diag: &[Matrix6<f64>], off: &[((usize, usize), Matrix6<f64>)]) {
+        let n = diag.len();
+        self.groups.clear();
+        self.group_of.clear();
         if off.is_empty() {
             // no force element couples two moving bodies: every body is its own group
             for (body, d) in diag.iter().enumerate() {
@@ -338,19 +409,15 @@ impl IterationMatrix {
                 }
             }
             self.group_of.extend(0..n);
-            (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
             return;
         }
-        // the groups in order of their first body
         let roots = component_roots(n, off.iter().map(|(key, _)| *key));
         let mut size = vec![0usize; n];
         roots.iter().for_each(|&r| size[r] += 1);
-        let groups = &mut self.groups;
-        let group_of = &mut self.group_of;
-        group_of.resize(n, 0);
+        self.group_of.resize(n, 0);
         for first in (0..n).filter(|&i| roots[i] == i) {
             let group = if size[first] == 1 {
-                group_of[first] = groups.len();
+                self.group_of[first] = self.groups.len();
                 Group::Single {
                     body: first,
                     inverse: inverse6(&diag[first]),
@@ -358,34 +425,44 @@ impl IterationMatrix {
             } else {
                 let bodies: Vec<usize> = (first..n).filter(|&b| roots[b] == first).collect();
                 for &b in &bodies {
-                    group_of[b] = groups.len();
+                    self.group_of[b] = self.groups.len();
                 }
-                let k = bodies.len();
-                let mut w = DMatrix::zeros(6 * k, 6 * k);
-                for (gi, &i) in bodies.iter().enumerate() {
-                    for (gj, &j) in bodies.iter().enumerate() {
-                        let block = if i == j {
-                            Some(diag[i])
-                        } else {
-                            off.iter().find(|(key, _)| *key == (i, j)).map(|(_, m)| {
-                                let mut m = *m;
-                                clamp(&mut m, i, j);
-                                m
-                            })
-                        };
-                        if let Some(block) = block {
-                            w.fixed_view_mut::<6, 6>(6 * gi, 6 * gj).copy_from(&block);
-                        }
-                    }
-                }
+                let w = self.coupled_block(&bodies, diag, off);
                 Group::Coupled {
                     bodies,
                     inverse: inverse_coupled(w),
                 }
             };
-            groups.push(group);
+            self.groups.push(group);
         }
-        (self.diag, self.off, self.jacobian) = (diag, off, jacobian);
+    }
+
+    /// The block of W on the coupled `bodies`.
+    fn coupled_block(
+        &self,
+        bodies: &[usize],
+        diag: &[Matrix6<f64>],
+        off: &[((usize, usize), Matrix6<f64>)],
+    ) -> DMatrix<f64> {
+        let k = bodies.len();
+        let mut w = DMatrix::zeros(6 * k, 6 * k);
+        for (gi, &i) in bodies.iter().enumerate() {
+            for (gj, &j) in bodies.iter().enumerate() {
+                let block = if i == j {
+                    Some(diag[i])
+                } else {
+                    off.iter().find(|(key, _)| *key == (i, j)).map(|(_, m)| {
+                        let mut m = *m;
+                        clamp_held(&self.mask, &mut m, i, j);
+                        m
+                    })
+                };
+                if let Some(block) = block {
+                    w.fixed_view_mut::<6, 6>(6 * gi, 6 * gj).copy_from(&block);
+                }
+            }
+        }
+        w
     }
 
     /// W⁻¹ rhs (held dofs give zero).

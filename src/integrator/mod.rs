@@ -9,11 +9,12 @@ pub mod iteration_matrix;
 pub mod moreau_jean;
 mod opposed;
 pub mod params;
-mod parts;
 pub mod projection;
 mod rows;
 pub mod schedule;
 pub mod simulation;
+mod subdivision;
+mod workspace;
 
 pub use params::{IntegrationParameters, Preset, Scheme};
 pub use schedule::{Refine, Schedule, Settle};

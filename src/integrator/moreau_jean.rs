@@ -10,33 +10,27 @@
 use super::elimination::Elimination;
 use super::iteration_matrix::IterationMatrix;
 use super::params::IntegrationParameters;
-use super::simulation::hand_back_points;
 use crate::math::blocks::vector3;
 use crate::math::buffer::{self, copy_into, zeros};
-use crate::math::kept;
 use crate::mechanics::body::{moves, Twist};
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::{ContactPoint, Model, Pose};
-use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus};
+use crate::solver::{solve_fc3d, Fc3d, NsgsOptions, SolverStatus, SolverStorage};
 use nalgebra::{ArrayStorage, DMatrix, DVector, Matrix3x6, Matrix6x3, Vector3};
-use std::cell::RefCell;
-use std::thread::LocalKey;
 
 /// The joints' bilateral rows evaluated at a time and poses, appended to a list.
 pub type JointRowsAt<'a> = &'a dyn Fn(f64, &[Pose], &mut Vec<BilateralRow>);
 
-/// The active contacts at positions `which` evaluated at other poses, in a spare list
-/// (`hand_back_points` keeps its storage once done with).
-pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &[usize]) -> Vec<ContactPoint>;
+/// The turning contacts (`ActiveAt::turning`) evaluated at other poses, in order, written
+/// over the entries of a list.
+pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &mut Vec<ContactPoint>);
 
 /// The active contacts evaluated at other poses, and those of them that were closed when
 /// the step began (persistent). Like the joints' rows (`Elimination`), a persistent
 /// contact's impulse acts along its rows at the step's midpoint and its velocity is
 /// measured at the step's end: a contact sliding along a concave surface, or carried on a
 /// long lever by a turning body, then drifts off its surface by O(h³) per step instead of
-/// O(h²) (a pendulum on a 10 mm clearance joint at h = 1e-4 sank 7.1e-4 m into its bore
-/// in 1 s with start-of-step rows, 3.2e-5 m with these), and steady sliding along a
-/// circle does no work. The Delassus matrix is then not symmetric, which slows the
+/// O(h²), and steady sliding along a circle does no work. The Delassus matrix is then not symmetric, which slows the
 /// solver. A contact that closes within the step keeps the rows it is given: the same rows
 /// then measure its impulse and both velocities of Newton's law, which is what makes an
 /// impact with e = 1 keep the kinetic energy and one with e < 1 lose it, at any step.
@@ -47,7 +41,7 @@ pub struct ActiveAt<'a> {
     /// at the end: a contact on a plane that cannot turn keeps its start rows, as any
     /// contact whose normal does not turn does, without being evaluated to find that out.
     pub turning: &'a [usize],
-    /// The active contacts at positions `which` evaluated at the given poses, in order.
+    /// The turning contacts evaluated at the given poses.
     pub at: ContactsAt<'a>,
 }
 
@@ -90,7 +84,7 @@ pub struct VelocityStep {
     pub joint_impulses: Vec<f64>,
     /// The joints' elimination the step ended with, factorised (`None` without joints):
     /// the step's projection takes its first steps with it (`Elimination::chord_step`),
-    /// and `hand_back_elimination` keeps its storage for the next step.
+    /// and `VelocityStorage::keep_elimination` keeps it for the next step's.
     pub(super) elimination: Option<Box<Elimination>>,
     /// Status of the last FC3D solve (the one whose impulses are applied).
     pub solver: SolverStatus,
@@ -126,20 +120,19 @@ const NORMAL_TURN: f64 = 1e-6;
 /// step (a chord of 0.2, 11.5°) keeps its start rows: its rows at mid-step and at the end
 /// are then those of other points, not of one point sliding along its surface, which is
 /// what they stand for, and the projection removes the drift that start rows leave. A
-/// journal that one step throws across its bore is such a contact: on the circuit breaker
-/// with frictionless clearances of 1 nm, which must behave as the ideal mechanism,
-/// mid-step and end rows up to a chord of 0.5 put the opening 1.5–4e-3 early (11–30 µs,
-/// up to 1.1 σ of the toleranced study) over five perturbations of the step; up to 0.2,
-/// 1.6–2.3e-4, as start-of-step rows do. Plain Moreau–Jean, which nothing takes out of
-/// a wall, keeps these rows at any turn.
+/// journal that one step throws across its bore is such a contact: the circuit breaker
+/// with frictionless clearances of 1 nm, which must behave as the ideal mechanism, keeps
+/// its opening time within a few 1e-4 of the ideal one at this bound, and drifts with the
+/// step size at larger ones. Plain Moreau–Jean, which nothing takes out of a wall, keeps
+/// these rows at any turn.
 const SWUNG: f64 = 0.2;
 
 /// Sweeps allowed a nonsymmetric contact problem (mid-step and end rows), with the global
 /// Newton method they try on the way but without the last resort, before the step falls
 /// back to its start-of-step rows. Gauss–Seidel needs symmetry to converge surely, and
-/// the last resort's proximal iterations once took 6 s to fail on one step of a
-/// circuit-breaker sample; the nominal sample's nonsymmetric problems take 1–14 sweeps and
-/// Newton iterations (37 once).
+/// the last resort's proximal iterations can take seconds to fail on such a problem; the
+/// circuit breaker's nominal nonsymmetric problems take a few tens of sweeps and Newton
+/// iterations at most.
 const NONSYMMETRIC_SWEEPS: usize = 40;
 
 /// A contact's Jacobian blocks on its moving bodies: at most two, kept inline (a step
@@ -224,207 +217,293 @@ pub struct StepStart<'a> {
 /// With joints the equality rows are eliminated exactly (Schur complement, `Elimination`)
 /// and the contacts see the constrained operator W⁻¹ − W⁻¹Hᵀ(HW⁻¹Hᵀ)⁻¹HW⁻¹, which differs
 /// from W⁻¹ only for the contacts on bodies coupled to the joints.
+///
+/// `storage` holds the step's intermediate vectors, reused from one step to the next.
 pub fn velocity_step(
     start: &StepStart,
     active: &[ActiveContact],
     warm: &[Vector3<f64>],
     contacts: Option<&ActiveAt>,
     joints: Option<JointRowsAt>,
+    storage: &mut VelocityStorage,
 ) -> VelocityStep {
-    let StepStart {
-        model,
-        mask,
-        params,
-        damping: alpha,
-        t,
-        poses,
-        v0,
-    } = *start;
-    let (h, theta) = (params.h, params.theta);
-    let ndof = v0.len();
-    let mut scratch = kept::take(&SCRATCH);
-    scratch.fit(ndof);
-    let Scratch {
-        f0,
-        mv,
-        f1,
-        resid,
-        dv,
-        v_free,
-        poses1,
-        mid,
-        w,
-        q_free,
-        q_joint,
-        constrained,
-        unreacted,
-        problem,
-        mu,
-        shift,
-        r,
-        before,
-    } = &mut *scratch;
-    model.wrench(t, poses, v0, f0);
-    model.mass_times(v0, mv);
-    f0.axpy(-alpha, &*mv, 1.0);
-    let momentum_scale = mv.norm() + h * f0.norm();
-
+    let params = start.params;
+    // the joints' rows, eliminated at every Newton iterate (the first one before anything
+    // reads them), and their impulses in `q_joint`
+    let mut elimination = joints.map(|_| storage.elimination.take().unwrap_or_default());
+    storage.fit(start.v0.len());
+    let momentum_scale = storage.start_forces(start);
     // the rows the impulses act along (G) and those the end-of-step velocity meets (H, when
     // they differ): the start-of-step ones, but at the midpoint and the end for the
     // persistent contacts whose normal turns
-    let persistent = contacts.filter(|c| !c.persistent.is_empty() && h > 0.0);
+    let persistent = contacts.filter(|c| !c.persistent.is_empty() && params.h > 0.0);
     let turning = persistent.filter(|c| !c.turning.is_empty());
-    problem.start_rows(active, mask);
-    mu.clear();
-    mu.extend(active.iter().map(|c| c.mu));
-    // Under a projection, a closed contact whose bodies have a guard in the problem (a
-    // step that throws a journal across its clearance) keeps its start rows, as a swung
-    // one does. A ring's closest point on mid-step rows and its guards on start rows
-    // let the solver carry large, nearly cancelling normal impulses, and the closest
-    // point's friction on them took energy the motion does not lose: 204 N·s on the
-    // ring and 181 N·s on a guard where the step needed 0.01, and 3.3 J of 4.9 gone
-    // in 1 s from a pendulum on a 1 µm clearance at μ = 0.1 and h = 1e-3, which loses
-    // 0.025–0.026 J at any step from 1e-5 to 1e-3 with these start rows.
-    let guarded = |c: &ContactPoint| {
-        active
-            .iter()
-            .any(|g| g.point.gap_law && g.point.bodies() == c.bodies())
-    };
-    // Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
-    // keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
-    // never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
-    // it asks U_N,k+1 ≥ 0 only, as an ordinary contact would: requiring the body to move
-    // back could contradict a contact on the other side (the journal's closest point), and
-    // the projection removes what remains. A persistent contact takes no restitution: it
-    // is closed, and what its start-of-step rows show as approach is the turn of its frame
-    // over the last step (sliding along a concave surface), not an impact.
-    let is_persistent = |c: usize| persistent.is_some_and(|p| p.persistent.contains(&c));
-    shift.clear();
-    shift.extend(active.iter().enumerate().map(|(k, c)| {
-        let u0 = c.point.normal_velocity(v0.as_slice());
-        if c.point.gap_law && h > 0.0 {
-            ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
-        } else if is_persistent(k) {
-            0.0
-        } else {
-            c.e * u0
-        }
-    }));
-    zeros(r, 3 * active.len());
+    storage.problem.start_rows(active, start.mask);
+    storage.mu.clear();
+    storage.mu.extend(active.iter().map(|c| c.mu));
+    storage.impact_shifts(start, active, persistent);
+    zeros(&mut storage.r, 3 * active.len());
     for (i, p) in warm.iter().enumerate() {
-        r.fixed_rows_mut::<3>(3 * i).copy_from(p);
+        storage.r.fixed_rows_mut::<3>(3 * i).copy_from(p);
     }
-    // the joints' rows, eliminated at every Newton iterate (the first one before anything
-    // reads them), and their impulses in `q_joint`
-    let mut elimination = joints.map(|_| ELIMINATION.take().unwrap_or_default());
-    let eliminated = elimination.is_some();
-
-    let mut v = DVector::from_vec(spare_copy(&SPARE_VELOCITIES, v0.as_slice()));
-    let mut status = SolverStatus {
-        converged: true,
-        ..Default::default()
-    };
-    let mut converged = false;
-    let mut plastic = false;
-    let mut iterations = 0;
+    // the last result's lists, written over
+    let mut spent = storage.spent.take();
+    let mut v = spent.as_mut().map_or(DVector::zeros(0), |s| {
+        std::mem::replace(&mut s.v, DVector::zeros(0))
+    });
+    copy_into(&mut v, start.v0);
+    let mut newton = NewtonOutcome::default();
     for it in 0..=params.newton_max_iterations {
-        advance_poses_into(poses1, poses, v0, &v, h, theta);
-        model.wrench(t + h, poses1, &v, f1);
-        if alpha > 0.0 {
-            model.mass_times(&v, resid);
-            f1.axpy(-alpha, &*resid, 1.0);
-        }
-        // R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀
-        for ((d, a), b) in dv
-            .as_mut_slice()
-            .iter_mut()
-            .zip(v.as_slice())
-            .zip(v0.as_slice())
-        {
-            *d = a - b;
-        }
-        model.mass_times(&*dv, resid);
-        resid.axpy(-h * theta, &*f1, 1.0);
-        resid.axpy(-h * (1.0 - theta), &*f0, 1.0);
+        storage.residual_at(start, &v);
         if it > 0 {
             // converged when R(v) = Gᵀ P + Hᵀ Q to the tolerance
-            let res = match elimination.as_deref() {
-                Some(e) => {
-                    e.unreacted(q_joint, resid, unreacted);
-                    newton_residual(unreacted, &problem.g, r, mask)
-                }
-                None => newton_residual(resid, &problem.g, r, mask),
-            };
+            let res = storage.unreacted_residual(elimination.as_deref(), start.mask);
             if res <= params.newton_tolerance * momentum_scale.max(f64::MIN_POSITIVE) || res == 0.0
             {
-                converged = true;
+                newton.converged = true;
                 break;
             }
             if it == params.newton_max_iterations {
                 break;
             }
         }
-        iterations += 1;
-        w.assemble(model, mask, t + h, poses1, &v, h, theta, alpha);
-        // v_free = v − W⁻¹ R, in the buffer kept across the iterations
-        v_free.copy_from(&*resid);
-        w.solve_mut(v_free);
-        v_free.zip_apply(&v, |f, vi| *f = vi - *f);
+        newton.iterations += 1;
+        storage.free_velocity(start, &v);
         if turning.is_some() || joints.is_some() {
-            advance_poses_into(mid, poses, v0, &v, 0.5 * h, 0.5);
+            advance_poses_into(
+                &mut storage.mid,
+                start.poses,
+                start.v0,
+                &v,
+                0.5 * params.h,
+                0.5,
+            );
         }
-        if let (Some(c), 0) = (turning, iterations - 1) {
-            let (mut at_mid, mut at_end) = ((c.at)(mid, c.turning), (c.at)(poses1, c.turning));
-            for (k, &a) in c.turning.iter().enumerate() {
-                // a normal that does not turn over the step keeps the start rows (and the
-                // Delassus matrix symmetric, which the solver's sweeps need to converge
-                // fast), and so do one that swings (`SWUNG`) and one thrown with a guard
-                let n0 = active[a].point.frame.row(0);
-                let turn = (at_mid[k].frame.row(0) - n0)
-                    .norm()
-                    .max((at_end[k].frame.row(0) - n0).norm());
-                let swung = params.scheme.projects() && (turn > SWUNG || guarded(active[a].point));
-                if turn <= NORMAL_TURN || swung {
-                    continue;
-                }
-                // the impulse and the velocity on the tangents of the start, carried over
-                let frame = &active[a].point.frame;
-                at_mid[k].carry_tangents_of(frame);
-                at_end[k].carry_tangents_of(frame);
-                problem.turn(
-                    a,
-                    contact_blocks(&at_mid[k], mask),
-                    contact_blocks(&at_end[k], mask),
-                );
-            }
-            hand_back_points(at_mid);
-            hand_back_points(at_end);
+        if let (Some(c), 1) = (turning, newton.iterations) {
+            storage.turn_rows(c, active, start);
         }
-        // eliminate the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1})
         if let (Some(rows_at), Some(elimination)) = (joints, elimination.as_deref_mut()) {
-            elimination.assemble(w, rows_at, (t + 0.5 * h, mid), (t + h, poses1), mask);
-            elimination.impulses_into(v_free, q_free);
-            copy_into(constrained, v_free);
-            elimination.add_response(q_free, constrained);
+            storage.eliminate_joints(elimination, rows_at, start);
         }
-        let v_free_c = match eliminated {
-            true => &*constrained,
-            false => &*v_free,
-        };
         if active.is_empty() {
-            std::mem::swap(q_joint, q_free);
-            v.copy_from(v_free_c);
+            std::mem::swap(&mut storage.q_joint, &mut storage.q_free);
+            v.copy_from(storage.free(elimination.is_some()));
             continue;
         }
-        // Mid-step and end rows make the Delassus matrix nonsymmetric. Where the solver does
-        // not solve that problem within `NONSYMMETRIC_SWEEPS`, the step solves it on its
-        // start-of-step rows instead, first order for that one step.
-        // Newton's law asks each impact to rebound at e times its approach. Where contacts
-        // jam, those rebounds together are met only by impulses beyond the step's `reach`,
-        // and they can give the bodies energy: the step then takes its impacts plastic.
+        storage.solve_contacts(active, elimination.as_deref(), start, &mut newton);
+        storage.apply_impulses(&mut v, elimination.is_some());
+    }
+    storage.result(v, active.len(), elimination, newton, spent)
+}
+
+/// How a velocity step's Newton loop ended.
+struct NewtonOutcome {
+    iterations: usize,
+    converged: bool,
+    /// The last contact solve's status, and whether its impacts were taken plastic.
+    solver: SolverStatus,
+    plastic: bool,
+}
+
+impl Default for NewtonOutcome {
+    /// Before the first iteration: no contact problem, so nothing left unsolved.
+    fn default() -> Self {
+        NewtonOutcome {
+            iterations: 0,
+            converged: false,
+            solver: SolverStatus {
+                converged: true,
+                ..Default::default()
+            },
+            plastic: false,
+        }
+    }
+}
+
+impl VelocityStorage {
+    /// F₀ (with the settling damping) and M v₀ at the step's start; returns the momentum
+    /// scale the Newton loop's residual is measured against.
+    fn start_forces(&mut self, start: &StepStart) -> f64 {
+        let (f0, mv) = (&mut self.f0, &mut self.mv);
+        start.model.wrench(start.t, start.poses, start.v0, f0);
+        start.model.mass_times(start.v0, mv);
+        f0.axpy(-start.damping, &*mv, 1.0);
+        mv.norm() + start.params.h * f0.norm()
+    }
+
+    /// Each active contact's shift of its normal row in the velocity problem.
+    ///
+    /// Newton impact law: the shift e·U_N,k on the normal rows. A gap-law contact instead
+    /// keeps g + h((1 − θ) U_N,k + θ U_N,k+1) ≥ 0: the shift (g + h(1 − θ) U_N,k)/(hθ), but
+    /// never below 0. Where the start velocity alone already crosses (g + h(1 − θ) U_N,k < 0)
+    /// it asks U_N,k+1 ≥ 0 only, as an ordinary contact would: requiring the body to move
+    /// back could contradict a contact on the other side (the journal's closest point), and
+    /// the projection removes what remains. A persistent contact takes no restitution: it
+    /// is closed, and what its start-of-step rows show as approach is the turn of its frame
+    /// over the last step (sliding along a concave surface), not an impact.
+    fn impact_shifts(
+        &mut self,
+        start: &StepStart,
+        active: &[ActiveContact],
+        persistent: Option<&ActiveAt>,
+    ) {
+        let (h, theta) = (start.params.h, start.params.theta);
+        let is_persistent = |c: usize| persistent.is_some_and(|p| p.persistent.contains(&c));
+        self.shift.clear();
+        self.shift.extend(active.iter().enumerate().map(|(k, c)| {
+            let u0 = c.point.normal_velocity(start.v0.as_slice());
+            if c.point.gap_law && h > 0.0 {
+                ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+            } else if is_persistent(k) {
+                0.0
+            } else {
+                c.e * u0
+            }
+        }));
+    }
+
+    /// The end-of-step poses for the iterate `v`, and its residual
+    /// R(v) = M(v − v₀) − hθF₁ − h(1−θ)F₀ in `resid`.
+    fn residual_at(&mut self, start: &StepStart, v: &DVector<f64>) {
+        let (model, h, theta) = (start.model, start.params.h, start.params.theta);
+        let alpha = start.damping;
+        advance_poses_into(&mut self.poses1, start.poses, start.v0, v, h, theta);
+        model.wrench(start.t + h, &self.poses1, v, &mut self.f1);
+        if alpha > 0.0 {
+            model.mass_times(v, &mut self.resid);
+            self.f1.axpy(-alpha, &self.resid, 1.0);
+        }
+        for ((d, a), b) in self
+            .dv
+            .as_mut_slice()
+            .iter_mut()
+            .zip(v.as_slice())
+            .zip(start.v0.as_slice())
+        {
+            *d = a - b;
+        }
+        model.mass_times(&self.dv, &mut self.resid);
+        self.resid.axpy(-h * theta, &self.f1, 1.0);
+        self.resid.axpy(-h * (1.0 - theta), &self.f0, 1.0);
+    }
+
+    /// What the residual leaves once the contact impulses (and the joints', through
+    /// `elimination`) have answered it.
+    fn unreacted_residual(&mut self, elimination: Option<&Elimination>, mask: &[bool]) -> f64 {
+        match elimination {
+            Some(e) => {
+                e.unreacted(&self.q_joint, &self.resid, &mut self.unreacted);
+                newton_residual(&self.unreacted, &self.problem.g, &self.r, mask)
+            }
+            None => newton_residual(&self.resid, &self.problem.g, &self.r, mask),
+        }
+    }
+
+    /// The iteration matrix W at the iterate `v`, and the free velocity v − W⁻¹ R.
+    fn free_velocity(&mut self, start: &StepStart, v: &DVector<f64>) {
+        let (h, theta) = (start.params.h, start.params.theta);
+        let t1 = start.t + h;
+        let (model, mask) = (start.model, start.mask);
+        let alpha = start.damping;
+        self.w
+            .assemble(model, mask, t1, &self.poses1, v, h, theta, alpha);
+        self.v_free.copy_from(&self.resid);
+        self.w.solve_mut(&mut self.v_free);
+        self.v_free.zip_apply(v, |f, vi| *f = vi - *f);
+    }
+
+    /// The persistent contacts whose normal turns over the step act along their mid-step
+    /// rows and are measured along their end rows: a normal that does not turn keeps the
+    /// start rows (and the Delassus matrix symmetric, which the solver's sweeps need to
+    /// converge fast), and so do one that swings (`SWUNG`) and one thrown with a guard.
+    ///
+    /// Under a projection, a closed contact whose bodies have a guard in the problem (a
+    /// step that throws a journal across its clearance) keeps its start rows, as a swung
+    /// one does. A ring's closest point on mid-step rows and its guards on start rows
+    /// would let the solver carry large, nearly cancelling normal impulses, and the
+    /// closest point's friction on them would take energy the motion does not lose; on
+    /// start rows the energy a clearance pendulum loses to friction does not depend on
+    /// the step.
+    fn turn_rows(&mut self, c: &ActiveAt, active: &[ActiveContact], start: &StepStart) {
+        let guarded = |p: &ContactPoint| {
+            active
+                .iter()
+                .any(|g| g.point.gap_law && g.point.bodies() == p.bodies())
+        };
+        let projects = start.params.scheme.projects();
+        (c.at)(&self.mid, &mut self.at_mid);
+        (c.at)(&self.poses1, &mut self.at_end);
+        for (k, &a) in c.turning.iter().enumerate() {
+            let (at_mid, at_end) = (&mut self.at_mid[k], &mut self.at_end[k]);
+            let n0 = active[a].point.frame.row(0);
+            let turn = (at_mid.frame.row(0) - n0)
+                .norm()
+                .max((at_end.frame.row(0) - n0).norm());
+            let swung = projects && (turn > SWUNG || guarded(active[a].point));
+            if turn <= NORMAL_TURN || swung {
+                continue;
+            }
+            // the impulse and the velocity on the tangents of the start, carried over
+            let frame = &active[a].point.frame;
+            at_mid.carry_tangents_of(frame);
+            at_end.carry_tangents_of(frame);
+            self.problem.turn(
+                a,
+                contact_blocks(at_mid, start.mask),
+                contact_blocks(at_end, start.mask),
+            );
+        }
+    }
+
+    /// Eliminates the joints: v = v_free + W⁻¹G(q_{k+½})ᵀ Q with H(q_{k+1}) v = b(t_{k+1}),
+    /// the free velocity under the joints in `constrained`.
+    fn eliminate_joints(
+        &mut self,
+        elimination: &mut Elimination,
+        rows_at: JointRowsAt,
+        start: &StepStart,
+    ) {
+        let (t, h) = (start.t, start.params.h);
+        let (mid, end) = ((t + 0.5 * h, &self.mid[..]), (t + h, &self.poses1[..]));
+        elimination.assemble(&self.w, rows_at, mid, end, start.mask);
+        elimination.impulses_into(&self.v_free, &mut self.q_free);
+        copy_into(&mut self.constrained, &self.v_free);
+        elimination.add_response(&self.q_free, &mut self.constrained);
+    }
+
+    /// The free velocity the contacts see: under the joints where they are eliminated.
+    fn free(&self, eliminated: bool) -> &DVector<f64> {
+        match eliminated {
+            true => &self.constrained,
+            false => &self.v_free,
+        }
+    }
+
+    /// The contacts' impulses in `r`.
+    ///
+    /// Mid-step and end rows make the Delassus matrix nonsymmetric. Where the solver does
+    /// not solve that problem within `NONSYMMETRIC_SWEEPS`, the step solves it on its
+    /// start-of-step rows instead, first order for that one step. Newton's law asks each
+    /// impact to rebound at e times its approach. Where contacts jam, those rebounds
+    /// together are met only by impulses beyond the step's `reach`, and they can give the
+    /// bodies energy: the step then takes its impacts plastic.
+    fn solve_contacts(
+        &mut self,
+        active: &[ActiveContact],
+        elimination: Option<&Elimination>,
+        start: &StepStart,
+        newton: &mut NewtonOutcome,
+    ) {
+        let params = start.params;
+        let eliminated = elimination.is_some();
         loop {
-            problem.assemble(w, elimination.as_deref(), v_free_c, shift);
-            let nonsymmetric = problem.turned;
+            let v_free = match eliminated {
+                true => &self.constrained,
+                false => &self.v_free,
+            };
+            self.problem
+                .assemble(&self.w, elimination, v_free, &self.shift);
+            let nonsymmetric = self.problem.turned;
             let opts = match nonsymmetric {
                 true => NsgsOptions {
                     max_sweeps: NONSYMMETRIC_SWEEPS.min(params.solver.max_sweeps),
@@ -433,75 +512,95 @@ pub fn velocity_step(
                 },
                 false => params.solver,
             };
-            let reach = reach(&problem.w, &problem.q);
-            cap_warm_start(r, reach);
+            let reach = reach(&self.problem.w, &self.problem.q);
+            cap_warm_start(&mut self.r, reach);
             if nonsymmetric {
-                copy_into(before, r);
+                copy_into(&mut self.before, &self.r);
             }
-            status = solve_fc3d(
-                &Fc3d {
-                    w: &problem.w,
-                    q: &problem.q,
-                    mu,
-                },
-                r,
-                &opts,
-            );
-            if nonsymmetric && !status.converged {
-                r.copy_from(before);
-                problem.start_rows(active, mask);
-            } else if r.amax() > reach && shift.iter().any(|&s| s < 0.0) {
-                r.fill(0.0);
-                shift.iter_mut().for_each(|s| *s = s.max(0.0));
-                plastic = true;
+            let problem = Fc3d {
+                w: &self.problem.w,
+                q: &self.problem.q,
+                mu: &self.mu,
+            };
+            newton.solver = solve_fc3d(&problem, &mut self.r, &opts, &mut self.solver);
+            if nonsymmetric && !newton.solver.converged {
+                self.r.copy_from(&self.before);
+                self.problem.start_rows(active, start.mask);
+            } else if self.r.amax() > reach && self.shift.iter().any(|&s| s < 0.0) {
+                self.r.fill(0.0);
+                self.shift.iter_mut().for_each(|s| *s = s.max(0.0));
+                newton.plastic = true;
             } else {
                 break;
             }
         }
-        v.copy_from(v_free_c);
-        for (c, yc) in problem.ys.iter().enumerate() {
-            let p = r.fixed_rows::<3>(3 * c);
+    }
+
+    /// The next iterate: the free velocity plus the contacts' responses to their impulses,
+    /// and the joints' impulses less what the contacts' take from them.
+    fn apply_impulses(&mut self, v: &mut DVector<f64>, eliminated: bool) {
+        v.copy_from(self.free(eliminated));
+        for (c, yc) in self.problem.ys.iter().enumerate() {
+            let p = self.r.fixed_rows::<3>(3 * c);
             for (b, y) in yc {
                 let mut seg = v.fixed_rows_mut::<6>(6 * b);
                 seg += y * p;
             }
         }
-        std::mem::swap(q_joint, q_free);
-        for (c, corr) in problem.corrections.iter().enumerate() {
+        std::mem::swap(&mut self.q_joint, &mut self.q_free);
+        for (c, corr) in self.problem.corrections.iter().enumerate() {
             if let Some(corr) = corr {
-                *q_joint -= corr * r.fixed_rows::<3>(3 * c);
+                self.q_joint -= corr * self.r.fixed_rows::<3>(3 * c);
             }
         }
     }
-    let mut normal_speeds = kept::spare(&SPARE_NUMBERS);
-    normal_speeds.extend(problem.measured().iter().map(|bc| bc.velocity(&v).x));
-    let mut impulses = kept::spare(&SPARE_IMPULSES);
-    impulses.extend((0..active.len()).map(|c| r.fixed_rows::<3>(3 * c).into_owned()));
-    let mut joint_impulses = kept::spare(&SPARE_NUMBERS);
-    if eliminated {
-        joint_impulses.extend_from_slice(q_joint.as_slice());
-    }
-    // every pass of the Newton loop, the last included, starts by placing `poses1` at `v`
-    VelocityStep {
-        poses: spare_copy(&SPARE_POSES, poses1),
-        v,
-        impulses,
-        normal_speeds,
-        joint_impulses,
-        elimination,
-        newton_iterations: iterations,
-        newton_converged: converged,
-        solver: status,
-        plastic,
+
+    /// The step's result at the last iterate `v`, with `contacts` active contacts, in the
+    /// lists of the `spent` result where there is one.
+    fn result(
+        &self,
+        v: DVector<f64>,
+        contacts: usize,
+        elimination: Option<Box<Elimination>>,
+        newton: NewtonOutcome,
+        spent: Option<VelocityStep>,
+    ) -> VelocityStep {
+        let (mut poses, mut normal_speeds, mut impulses, mut joint_impulses) = match spent {
+            Some(s) => (s.poses, s.normal_speeds, s.impulses, s.joint_impulses),
+            None => Default::default(),
+        };
+        // every pass of the Newton loop, the last included, starts by placing `poses1` at `v`
+        poses.clear();
+        poses.extend_from_slice(&self.poses1);
+        normal_speeds.clear();
+        normal_speeds.extend(self.problem.measured().iter().map(|bc| bc.velocity(&v).x));
+        impulses.clear();
+        impulses.extend((0..contacts).map(|c| self.r.fixed_rows::<3>(3 * c).into_owned()));
+        joint_impulses.clear();
+        if elimination.is_some() {
+            joint_impulses.extend_from_slice(self.q_joint.as_slice());
+        }
+        VelocityStep {
+            poses,
+            normal_speeds,
+            impulses,
+            v,
+            joint_impulses,
+            elimination,
+            newton_iterations: newton.iterations,
+            newton_converged: newton.converged,
+            solver: newton.solver,
+            plastic: newton.plastic,
+        }
     }
 }
 
-/// The Newton loop's vectors, kept from one step to the next on each thread (`kept`):
-/// allocating and freeing them took 14 %
-/// of the step of a bouncing ball or a free body. Every one is overwritten before it is
-/// read, so the results do not depend on what a previous step left in them.
+/// A velocity step's storage, reused from one step to the next: the Newton loop's vectors,
+/// the contact problem, the solver's storage and the joints' elimination. Every entry is
+/// overwritten before it is read, so a step's result does not depend on what the last one
+/// left in it.
 #[derive(Default)]
-struct Scratch {
+pub struct VelocityStorage {
     f0: DVector<f64>,
     mv: DVector<f64>,
     f1: DVector<f64>,
@@ -525,9 +624,21 @@ struct Scratch {
     shift: Vec<f64>,
     r: DVector<f64>,
     before: DVector<f64>,
+    /// The turning contacts at mid-step and at the step's end.
+    at_mid: Vec<ContactPoint>,
+    at_end: Vec<ContactPoint>,
+    solver: SolverStorage,
+    /// The joints' elimination, lent to a velocity step with joints, which hands it on
+    /// with its result to the projection (`VelocityStep::elimination`).
+    elimination: Option<Box<Elimination>>,
+    /// The result of a velocity step once taken: the next result is written over its
+    /// lists (`keep_spent`).
+    spent: Option<VelocityStep>,
+    /// A list of poses once done with (a state's, replaced), for `copy_poses`.
+    spare_poses: Vec<Pose>,
 }
 
-impl Scratch {
+impl VelocityStorage {
     /// Sizes the vectors for `n` degrees of freedom.
     fn fit(&mut self, n: usize) {
         for b in [
@@ -541,79 +652,34 @@ impl Scratch {
             buffer::fit(b, n);
         }
     }
-}
 
-thread_local! {
-    /// Taken by a velocity step and put back when it ends (a nested step would find none
-    /// and make its own).
-    static SCRATCH: kept::Slot<Scratch> = const { kept::Slot::new(None) };
-    /// The joints' elimination, taken by a velocity step with joints and handed on with its
-    /// result to the projection (`hand_back_elimination`).
-    static ELIMINATION: kept::Slot<Elimination> = const { kept::Slot::new(None) };
-}
-
-/// Keeps the storage of a velocity step's elimination, once done with, for the next step on
-/// this thread (one dropped instead is only built again).
-pub(super) fn hand_back_elimination(elimination: Option<Box<Elimination>>) {
-    if let Some(e) = elimination {
-        ELIMINATION.set(Some(e));
+    /// Keeps a velocity step's elimination, once done with, for the next step's.
+    pub(super) fn keep_elimination(&mut self, elimination: Option<Box<Elimination>>) {
+        if elimination.is_some() {
+            self.elimination = elimination;
+        }
     }
-}
 
-thread_local! {
-    /// The lists a velocity step returns and a step lets go once it has taken them
-    /// (`VelocityStep::hand_back`, `hand_back_poses`), kept for the next step on this
-    /// thread: allocating and freeing them took 1.2 % of a pendulum step's instructions.
-    /// Velocities and the short lists of numbers are kept apart, so that neither takes the
-    /// other's storage and grows it at every step.
-    static SPARE_VELOCITIES: kept::Spares<f64> = const { RefCell::new(Vec::new()) };
-    static SPARE_NUMBERS: kept::Spares<f64> = const { RefCell::new(Vec::new()) };
-    static SPARE_IMPULSES: kept::Spares<Vector3<f64>> = const { RefCell::new(Vec::new()) };
-    static SPARE_POSES: kept::Spares<Pose> = const { RefCell::new(Vec::new()) };
-}
+    /// Keeps a velocity step once done with: its elimination for the next step's, its
+    /// lists for the next result.
+    pub(super) fn keep_spent(&mut self, mut vs: VelocityStep) {
+        self.keep_elimination(vs.elimination.take());
+        self.spent = Some(vs);
+    }
 
-/// A copy of `from` in the storage of a list handed back.
-fn spare_copy<T: Copy>(spares: &'static LocalKey<kept::Spares<T>>, from: &[T]) -> Vec<T> {
-    let mut v = kept::spare(spares);
-    v.extend_from_slice(from);
-    v
-}
+    /// A copy of `poses` in the storage of a list of poses once done with.
+    pub(super) fn copy_poses(&mut self, poses: &[Pose]) -> Vec<Pose> {
+        let mut copy = std::mem::take(&mut self.spare_poses);
+        copy.clear();
+        copy.extend_from_slice(poses);
+        copy
+    }
 
-/// A copy of `poses` in the storage of a list of poses handed back.
-pub(super) fn spare_poses(poses: &[Pose]) -> Vec<Pose> {
-    spare_copy(&SPARE_POSES, poses)
-}
-
-/// Keeps the storage of a list of poses, once done with (a state's, replaced), for the next
-/// `spare_poses` on this thread.
-pub(super) fn hand_back_poses(poses: Vec<Pose>) {
-    kept::hand_back(&SPARE_POSES, poses);
-}
-
-/// Fills this thread's spare step lists with stale entries of other sizes (for tests that
-/// show a step reads nothing they held).
-#[cfg(test)]
-pub(super) fn poison_lists() {
-    let pose = Pose {
-        x: Vector3::from_element(f64::NAN),
-        p: nalgebra::UnitQuaternion::identity(),
-    };
-    SPARE_VELOCITIES.set(vec![vec![f64::NAN; 40], vec![f64::NAN; 3]]);
-    SPARE_NUMBERS.set(vec![vec![f64::NAN; 40]; 3]);
-    SPARE_IMPULSES.set(vec![vec![Vector3::from_element(f64::NAN); 40]; 3]);
-    SPARE_POSES.set(vec![vec![pose; 9], vec![pose; 1]]);
-}
-
-impl VelocityStep {
-    /// Keeps the storage of the step's lists, once done with, for the next step on this
-    /// thread; the elimination's with `hand_back_elimination`.
-    pub(super) fn hand_back(self) {
-        hand_back_poses(self.poses);
-        kept::hand_back(&SPARE_VELOCITIES, self.v.data.into());
-        kept::hand_back(&SPARE_IMPULSES, self.impulses);
-        kept::hand_back(&SPARE_NUMBERS, self.normal_speeds);
-        kept::hand_back(&SPARE_NUMBERS, self.joint_impulses);
-        hand_back_elimination(self.elimination);
+    /// Keeps a list of poses once done with, for `copy_poses`.
+    pub(super) fn keep_poses(&mut self, poses: Vec<Pose>) {
+        if poses.capacity() >= self.spare_poses.capacity() {
+            self.spare_poses = poses;
+        }
     }
 }
 
@@ -634,10 +700,9 @@ fn reach(w: &DMatrix<f64>, q: &DVector<f64>) -> f64 {
 }
 
 /// Scales a warm start down to the step's `reach`. The wedged journal's symmetric problem,
-/// on start rows, carries its pairs harmlessly: they cancel. Its last resort once returned
-/// one of 2.3e6 N·s where the step called for 1e-3; carried into a later step's
-/// nonsymmetric problem, on whose mid-step rows the pair no longer cancels, it gave the
-/// bar 11 J in one step.
+/// on start rows, carries its pairs harmlessly: they cancel. Carried into a later step's
+/// nonsymmetric problem, on whose mid-step rows a pair no longer cancels, a pair far
+/// beyond the reach would give the mechanism energy.
 fn cap_warm_start(r: &mut DVector<f64>, reach: f64) {
     let norm = r.amax();
     if norm > reach {
@@ -789,8 +854,8 @@ mod tests {
     use super::*;
     use crate::scene::Scene;
 
-    /// A step reads nothing that an earlier one left in its scratch: the same run ends in
-    /// the same state on a fresh thread and on one whose scratch vectors were first filled
+    /// A step reads nothing that an earlier one left in its storage: the same run ends in
+    /// the same state from fresh storage and from storage whose vectors were first filled
     /// with NaN, whose contact problem was left stale and of another size, and whose
     /// iteration matrix (and the joints' elimination with it) was assembled at NaN
     /// velocities, which any read before a write would spread. The ball bounces (a contact
@@ -833,7 +898,8 @@ mod tests {
                         f64::NAN,
                     )),
                 };
-                SCRATCH.set(Some(Box::new(Scratch {
+                let mut ws = Box::<crate::integrator::workspace::StepWorkspace>::default();
+                ws.velocity.step = VelocityStorage {
                     f0: nan(),
                     mv: nan(),
                     f1: nan(),
@@ -852,19 +918,20 @@ mod tests {
                     shift: vec![f64::NAN; 2],
                     r: stale(3),
                     before: stale(3),
-                })));
-                ELIMINATION.set(Some(Box::new(elimination)));
+                    at_mid: Vec::new(),
+                    at_end: Vec::new(),
+                    solver: SolverStorage::default(),
+                    elimination: Some(Box::new(elimination)),
+                    spent: None,
+                    spare_poses: vec![nan_pose; 2],
+                };
+                sim.workspace = Some(ws);
             }
             sim.run_until(duration, |_, _| {}).unwrap();
             sim.state
         };
         for (name, duration) in [("bouncing-ball", 1.0), ("four-bar", 0.2)] {
-            let fresh = std::thread::spawn(move || run(name, duration, false))
-                .join()
-                .unwrap();
-            let poisoned = std::thread::spawn(move || run(name, duration, true))
-                .join()
-                .unwrap();
+            let (fresh, poisoned) = (run(name, duration, false), run(name, duration, true));
             assert!(fresh.v.iter().all(|x| x.is_finite()), "{name}");
             assert_eq!(fresh, poisoned, "{name}");
         }

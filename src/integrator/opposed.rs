@@ -3,7 +3,6 @@
 //! problem alone cannot tell how much of an equal and opposite pair of impulses they carry.
 
 use super::simulation::Simulation;
-use crate::math::kept;
 use crate::mechanics::body::BodyRef;
 use crate::mechanics::ContactPoint;
 use nalgebra::Vector3;
@@ -20,14 +19,17 @@ impl Simulation {
     /// and striking the other) has both walls active: the one it leaves, pressed in the
     /// last step, and the one it strikes. Their conditions then hold at one normal velocity
     /// only (U ≥ −e a on the one, −U ≥ e a on the other), round-off makes them slightly
-    /// infeasible, and the solver drifts along the pair: on a 10 mm clearance pendulum
-    /// swinging in space, 1e10 N·s at h = 0.05 and 4e7 N·s at 0.03 with located impacts
-    /// and e = 0; the round-off of such a pair gave the bar 0.31 J at 0.03. The wall the
+    /// infeasible, and the solver drifts along the pair to impulses of any size, whose
+    /// round-off gives the mechanism energy. The wall the
     /// step leaves has nothing to say while the other one holds; if the step brings the
     /// part back onto it after all, the activation and the projection see it at the step's
     /// end, as any other contact. Walls pressed from both sides (forecasts within the
-    /// activation margin) both stay.
-    pub(super) fn behind_opposed(&self, active: &[usize]) -> Option<Vec<bool>> {
+    /// activation margin) both stay. `facing` is the list it works in.
+    pub(super) fn behind_opposed(
+        &self,
+        active: &[usize],
+        facing: &mut Vec<Option<Facing>>,
+    ) -> Option<Vec<bool>> {
         let p = self.step_params();
         let v0 = self.state.v.as_slice();
         // the normal oriented from the body of higher index to the lower, and that pair
@@ -36,7 +38,6 @@ impl Simulation {
             let n = c.normal();
             (bodies, if bodies.0 == c.body1 { n } else { -n })
         };
-        let mut facing = kept::take(&FACING);
         facing.clear();
         facing.extend(active.iter().map(|&i| {
             let c = &self.points[i];
@@ -62,20 +63,4 @@ impl Simulation {
 
 /// An active contact's bodies, its normal oriented from the body of higher index to the
 /// lower, and its forecast.
-type Facing = (((BodyRef, BodyRef), Vector3<f64>), f64);
-
-thread_local! {
-    /// `behind_opposed`'s list, kept from one step to the next on each thread.
-    static FACING: kept::Slot<Vec<Option<Facing>>> = const { kept::Slot::new(None) };
-}
-
-/// Fills this thread's list with stale entries (for tests that show a step reads nothing
-/// it held).
-#[cfg(test)]
-pub(super) fn poison_lists() {
-    let stale = (
-        ((Some(9), Some(9)), Vector3::from_element(f64::NAN)),
-        f64::NAN,
-    );
-    FACING.set(Some(Box::new(vec![Some(stale); 9])));
-}
+pub(super) type Facing = (((BodyRef, BodyRef), Vector3<f64>), f64);

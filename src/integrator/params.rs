@@ -150,7 +150,18 @@ impl Default for IntegrationParameters {
     }
 }
 
+/// Depth, in projection tolerances, to which a state counts as admissible.
+const ADMISSIBLE_DEPTH: f64 = 10.0;
+
 impl IntegrationParameters {
+    /// The penetration or joint violation (m) within which a state counts as admissible:
+    /// `ADMISSIBLE_DEPTH` projection tolerances. A projecting scheme holds contacts and
+    /// joints to its tolerance; a run whose states end up farther off did not do what the
+    /// scheme promises (a study marks it `suspect`).
+    pub fn admissible_depth(&self) -> f64 {
+        ADMISSIBLE_DEPTH * self.projection_tolerance
+    }
+
     /// The activation forecast of contact `c` over a step of size `h` from the velocities
     /// `v0`: g + γ h u_N. The contact enters the velocity problem when it is at most
     /// `activation_margin`.

@@ -8,7 +8,7 @@
 
 use super::rows;
 use crate::math::blocks::vector6_at;
-use crate::math::{buffer, kept};
+use crate::math::buffer;
 use crate::mechanics::joint::{BilateralRow, Joint, RowUnit};
 use crate::mechanics::{ContactPoint, Model, Motion, Pose};
 use crate::solver::{solve_mixed_pgs, EqualitySolver};
@@ -74,11 +74,6 @@ impl JointViolation {
 /// (`Simulation::project_poses`). The start bounds the nearest poses exactly where it
 /// satisfies every projected row; the factor allows for rows that were open at the start.
 pub const PROJECTION_REACH: f64 = 2.0;
-
-/// Depth, in projection tolerances, to which a state counts as admissible. A projecting
-/// scheme holds contacts and joints to its tolerance; a run whose states end up farther
-/// off did not do what the scheme promises, and is `suspect`.
-pub const ADMISSIBLE_DEPTH: f64 = 10.0;
 
 /// The distance between two sets of poses in the mass metric, √(Δνᵀ M Δν), Δν each
 /// body's translation and body-frame rotation vector: the norm the projection minimises.
@@ -503,24 +498,82 @@ impl Steps<'_> {
     fn give_back(&mut self, trials: impl IntoIterator<Item = Option<Trial>>) {
         self.spare.extend(trials.into_iter().flatten());
     }
+
+    /// The chord step `chord_step` makes for the joint rows `rows` (into `dnu`), where it
+    /// at least halves the squared violation `squares`, as a full Gauss–Newton step must.
+    fn chord(
+        &mut self,
+        chord_step: &mut ChordStep,
+        rows: &[BilateralRow],
+        dnu: &mut DVector<f64>,
+        squares: f64,
+    ) -> Option<Trial> {
+        let step = match chord_step(rows, dnu) {
+            true => self.try_step(dnu, 1.0),
+            false => None,
+        };
+        match step {
+            Some(next) if next.evaluated.squares <= 0.5 * squares => Some(next),
+            step => {
+                self.give_back([step]);
+                None
+            }
+        }
+    }
+
+    /// The damped Gauss–Newton step along `dnu`, full or half; where neither does its work,
+    /// the sequential-quadratic step `quadratic` gives (where a contact's gap bends sharply
+    /// across its normal) halved as needed; else the full or half step that lowered the
+    /// violation at all, else `dnu` halved further. A step that at least halves the squared
+    /// violation (the linear model promises it falls to nothing, a quarter for the half
+    /// step) is kept outright: the linearisation holds on its scale.
+    fn damped(
+        &mut self,
+        dnu: &DVector<f64>,
+        quadratic: impl FnOnce() -> Option<DVector<f64>>,
+    ) -> Option<Trial> {
+        let squares = self.squares;
+        let halves = |step: &Option<Trial>| {
+            step.as_ref()
+                .is_some_and(|s| s.evaluated.squares <= 0.5 * squares)
+        };
+        let full = self.try_step(dnu, 1.0);
+        if halves(&full) {
+            return full;
+        }
+        let half = self.try_step(dnu, 0.5);
+        if halves(&half) {
+            self.give_back([full]);
+            return half;
+        }
+        let quadratic = quadratic().and_then(|d| self.line_search(&d, 0));
+        match (quadratic, full, half) {
+            (Some(q), full, half) => {
+                self.give_back([full, half]);
+                Some(q)
+            }
+            (None, Some(full), half) => {
+                self.give_back([half]);
+                Some(full)
+            }
+            (None, None, Some(half)) => Some(half),
+            (None, None, None) => self.line_search(dnu, 2),
+        }
+    }
 }
 
-/// The projection's storage, kept from one projection to the next on each thread
-/// (`kept`). Every entry is written before it is read.
+/// The projection's storage, reused from one projection to the next by its caller (a
+/// simulation's workspace). Every entry is written before it is read.
 #[derive(Default)]
-struct Workspace {
+pub struct ProjectionStorage {
     spare: Vec<Trial>,
     linear: LinearStorage,
     gauss_newton: DVector<f64>,
 }
 
-thread_local! {
-    static WORKSPACE: kept::Slot<Workspace> = const { kept::Slot::new(None) };
-}
-
 /// Projects `poses` at time `t` onto the joints and the contacts `contacts` gives at the
 /// poses it is given, with the chord steps `chord` while only joints are projected and
-/// each at least halves the squared violation.
+/// each at least halves the squared violation, in `storage`.
 ///
 /// Damped Gauss–Newton: the full step, else the half step, is kept where it at least
 /// halves the squared violation. Else, where a contact's gap bends sharply across its
@@ -531,12 +584,11 @@ thread_local! {
 /// crossed its clearance in one large step) the full step overshoots and the undamped
 /// iteration wanders off; the damped one never leaves the poses worse than it found them.
 ///
-/// Gauss–Newton stays first so that the projections its steps solve keep their path (the
-/// quadratic step whenever it counted moved c60's trip by half a σ). The halving test keeps
-/// it first at nanometre clearances too, where every ring is sharply curved: taking the
-/// quadratic step in place of a half step that worked cost a projection failure and 3e-8 m
-/// of penetration, and keeping a full step that lowered the violation only a little let it
-/// zig-zag for 20 iterations (8.1e-7 → 9.1e-8 m) into a failure.
+/// Gauss–Newton stays first so that the projections its steps solve keep their path: a
+/// study's outputs do not move with a rescue they do not need. The halving test keeps it
+/// first at nanometre clearances too, where every ring is sharply curved and the half step
+/// does the job; and a full step that lowers the violation only a little is not kept, as
+/// it would zig-zag.
 #[allow(clippy::too_many_arguments)]
 pub fn project(
     model: &Model,
@@ -549,13 +601,13 @@ pub fn project(
     tolerance: f64,
     max_iterations: usize,
     mut chord: Option<ChordStep>,
+    storage: &mut ProjectionStorage,
 ) -> ProjectionOutcome {
-    let mut workspace = kept::take(&WORKSPACE);
-    let Workspace {
+    let ProjectionStorage {
         spare,
         linear: storage,
         gauss_newton,
-    } = &mut *workspace;
+    } = storage;
     let ndof = 6 * model.bodies.len();
     let mut current = spare.pop().unwrap_or_default();
     // a chord step needs the rows' values alone
@@ -569,14 +621,7 @@ pub fn project(
     };
     for it in 0..=max_iterations {
         let now = &current.evaluated;
-        out.iterations = it;
-        out.violation_after = now.max;
-        out.joint_violation = Some(JointViolation::of(t, &now.rows()[..now.njoint]));
-        if now.max <= tolerance {
-            out.converged = true;
-            break;
-        }
-        if it == max_iterations || now.rows().is_empty() {
+        if out.ends_at(it, now, t, tolerance) || it == max_iterations {
             break;
         }
         let mut steps = Steps {
@@ -593,17 +638,11 @@ pub fn project(
         // step must; from the first that does not, Gauss–Newton
         let joints_only = now.njoint == now.rows().len();
         if let Some(chord_step) = chord.as_mut().filter(|_| joints_only) {
-            let step = match chord_step(now.rows(), gauss_newton) {
-                true => steps.try_step(gauss_newton, 1.0),
-                false => None,
-            };
-            match step {
-                Some(next) if next.evaluated.squares <= 0.5 * now.squares => {
-                    poses.copy_from_slice(&next.poses);
-                    spare.push(std::mem::replace(&mut current, next));
-                    continue;
-                }
-                step => steps.give_back([step]),
+            let rows = now.rows();
+            if let Some(next) = steps.chord(chord_step, rows, gauss_newton, now.squares) {
+                poses.copy_from_slice(&next.poses);
+                spare.push(std::mem::replace(&mut current, next));
+                continue;
             }
             chord = None;
         }
@@ -617,46 +656,31 @@ pub fn project(
         if gauss_newton.iter().any(|x| !x.is_finite()) {
             break;
         }
-        // a step that at least halves the squared violation (the linear model promises it
-        // falls to nothing, a quarter for the half step) is kept outright: the
-        // linearisation holds on its scale
-        let halves = |step: &Option<Trial>| {
-            step.as_ref()
-                .is_some_and(|s| s.evaluated.squares <= 0.5 * now.squares)
+        let quadratic = || {
+            linear
+                .curved(mask, minv, ndof)
+                .filter(|d| d.iter().all(|x| x.is_finite()))
         };
-        let full = steps.try_step(gauss_newton, 1.0);
-        let accepted = if halves(&full) {
-            full
-        } else {
-            let half = steps.try_step(gauss_newton, 0.5);
-            if halves(&half) {
-                steps.give_back([full]);
-                half
-            } else {
-                let quadratic = linear
-                    .curved(mask, minv, ndof)
-                    .filter(|d| d.iter().all(|x| x.is_finite()))
-                    .and_then(|d| steps.line_search(&d, 0));
-                match (quadratic, full, half) {
-                    (Some(q), full, half) => {
-                        steps.give_back([full, half]);
-                        Some(q)
-                    }
-                    (None, Some(full), half) => {
-                        steps.give_back([half]);
-                        Some(full)
-                    }
-                    (None, None, Some(half)) => Some(half),
-                    (None, None, None) => steps.line_search(gauss_newton, 2),
-                }
-            }
+        let Some(next) = steps.damped(gauss_newton, quadratic) else {
+            break;
         };
-        let Some(next) = accepted else { break };
         poses.copy_from_slice(&next.poses);
         spare.push(std::mem::replace(&mut current, next));
     }
     spare.push(current);
     out
+}
+
+impl ProjectionOutcome {
+    /// Records iterate `it`, evaluated as `now` at time `t`; whether the projection ends
+    /// there: it meets the tolerance (converged), or has no rows to project.
+    fn ends_at(&mut self, it: usize, now: &Evaluated, t: f64, tolerance: f64) -> bool {
+        self.iterations = it;
+        self.violation_after = now.max;
+        self.joint_violation = Some(JointViolation::of(t, &now.rows()[..now.njoint]));
+        self.converged = now.max <= tolerance;
+        self.converged || now.rows().is_empty()
+    }
 }
 
 /// Normal rows (gap and its gradient) of contact points, as bilateral rows.
@@ -759,6 +783,7 @@ mod tests {
         sim: &crate::integrator::Simulation,
         poses: &mut [Pose],
         chord: Option<ChordStep>,
+        storage: &mut ProjectionStorage,
     ) -> ProjectionOutcome {
         project(
             &sim.model,
@@ -771,14 +796,15 @@ mod tests {
             sim.params.projection_tolerance,
             20,
             chord,
+            storage,
         )
     }
 
     /// The driven four-bar (a closed loop: its 21 joint rows are redundant), knocked off
     /// its assembly, comes back onto its joints: to the tolerance, no farther from the
     /// knocked poses than the assembly is (the projection finds the nearest admissible
-    /// poses in the mass metric), and bit for bit the same on a fresh thread and on one
-    /// whose storage holds NaNs from a larger problem.
+    /// poses in the mass metric), and bit for bit the same in fresh storage and in storage
+    /// that holds NaNs from a larger problem.
     #[test]
     fn a_projection_reads_nothing_an_earlier_one_left() {
         let sim = Scene::bundled_simulation("four-bar");
@@ -786,8 +812,9 @@ mod tests {
         let knocked = knocked(&assembled);
         let tolerance = sim.params.projection_tolerance;
         let project_on = |poison: bool| {
-            let (sim, mut poses) = (sim.clone(), knocked.clone());
-            std::thread::spawn(move || {
+            let mut poses = knocked.clone();
+            let mut storage = ProjectionStorage::default();
+            {
                 if poison {
                     let nan = f64::NAN;
                     let row = BilateralRow {
@@ -811,7 +838,7 @@ mod tests {
                             squares: nan,
                         },
                     };
-                    WORKSPACE.set(Some(Box::new(Workspace {
+                    storage = ProjectionStorage {
                         spare: (0..3).map(|_| trial()).collect(),
                         linear: LinearStorage {
                             mct: DMatrix::from_element(54, 40, nan),
@@ -821,13 +848,11 @@ mod tests {
                             work: vec![nan; 120],
                         },
                         gauss_newton: DVector::from_element(54, nan),
-                    })));
+                    };
                 }
-                let out = project_joints(&sim, &mut poses, None);
+                let out = project_joints(&sim, &mut poses, None, &mut storage);
                 (out, poses)
-            })
-            .join()
-            .unwrap()
+            }
         };
         let (out, poses) = project_on(false);
         assert!(out.converged && out.iterations >= 2, "{out:?}");
@@ -862,7 +887,7 @@ mod tests {
         let tolerance = sim.params.projection_tolerance;
         let run = |chord: Option<ChordStep>| {
             let mut poses = knocked.clone();
-            let out = project_joints(&sim, &mut poses, chord);
+            let out = project_joints(&sim, &mut poses, chord, &mut Default::default());
             (out, poses)
         };
         let (plain_out, plain) = run(None);

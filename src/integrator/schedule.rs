@@ -32,7 +32,7 @@ pub struct Refine {
     /// h refines the window with it.
     pub step_ratio: f64,
     /// Whether runs with probes take the window twice, at its step and at half of it, and
-    /// report each probe as 2 f(h/2) − f(h) (`probe_run`): Richardson extrapolation, which
+    /// report each probe as 2 f(h/2) − f(h) (`probe::run`): Richardson extrapolation, which
     /// removes the first-order error that the window's sliding contacts leave.
     pub extrapolate: bool,
 }

@@ -6,17 +6,16 @@
 
 use super::elimination::Elimination;
 use super::moreau_jean::{
-    hand_back_elimination, hand_back_poses, spare_poses, velocity_step, ActiveAt, ActiveContact,
-    JointRowsAt, StepStart, VelocityStep,
+    velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
 };
 use super::params::{IntegrationParameters, Scheme};
-use super::parts::Depth;
 use super::projection::{
     inverse_mass, mass_distance_of_length, project, within_reach, ChordStep, ContactRows,
-    ContactRowsOf, JointViolation, ProjectionOutcome, ADMISSIBLE_DEPTH,
+    ContactRowsOf, JointViolation, ProjectionOutcome,
 };
 use super::schedule::Schedule;
-use crate::math::kept;
+use super::subdivision::Depth;
+use super::workspace::{ProjectionWorkspace, StepWorkspace, VelocityWorkspace};
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -100,7 +99,7 @@ pub struct RunStats {
     pub max_projection_iterations: usize,
     /// Steps split at an impact (`IntegrationParameters::locate_impacts`).
     pub impact_splits: u64,
-    /// Steps taken in halves because they were not resolved (`parts.rs`).
+    /// Steps taken in halves because they were not resolved (`subdivision.rs`).
     pub halved_steps: u64,
     /// Steps whose impacts were taken plastic because, with restitution, the contacts
     /// jammed (`moreau_jean::REACH`).
@@ -117,119 +116,28 @@ pub enum SimError {
     Geometry { t: f64, message: String },
 }
 
-/// `Simulation::velocity_of`'s lists, kept from one step to the next on each thread: the
-/// positions of the persistent and turning contacts among the active ones, and the warm
-/// start.
+/// `Simulation::velocity_of`'s lists: the positions of the persistent and turning
+/// contacts among the active ones, the turning ones' candidates, and the warm start.
 #[derive(Default)]
-struct VelocityLists {
+pub(super) struct VelocityLists {
     persistent: Vec<usize>,
     turning: Vec<usize>,
+    turning_candidates: Vec<Candidate>,
     warm: Vec<Vector3<f64>>,
 }
 
-thread_local! {
-    static VELOCITY_LISTS: kept::Slot<VelocityLists> = const { kept::Slot::new(None) };
-}
-
-/// `Simulation::project_poses`'s lists, kept from one step to the next on each thread
-/// (`kept`): the pool's candidates, the
-/// poses before the projection, and the storage of the poses last evaluated.
+/// `Simulation::project_poses`'s lists: the pool's candidates, the poses before the
+/// projection, the poses last evaluated and the pool's points there.
 #[derive(Default)]
-struct ProjectionLists {
+pub(super) struct ProjectionLists {
     candidates: Vec<Candidate>,
     trial: Vec<Pose>,
     at: Vec<Pose>,
+    points: Vec<ContactPoint>,
 }
 
-thread_local! {
-    static SPARE_POINTS: kept::Spares<ContactPoint> = const { RefCell::new(Vec::new()) };
-    static SPARE_ALL_POINTS: kept::Spares<ContactPoint> = const { RefCell::new(Vec::new()) };
-    static SPARE_CANDIDATES: kept::Spares<Candidate> = const { RefCell::new(Vec::new()) };
-}
-
-/// A list of a few contact points handed back, with its stale entries, for
-/// `Model::evaluate_selected` to write `n` points over: it builds them in place where
-/// there are entries to write over.
-pub(super) fn spare_points(n: usize) -> Vec<ContactPoint> {
-    kept::spare_as_left(&SPARE_POINTS, n)
-}
-
-/// Keeps the storage of a list of a few contact points that is done with.
-pub(super) fn hand_back_points(points: Vec<ContactPoint>) {
-    kept::hand_back(&SPARE_POINTS, points)
-}
-
-/// `spare_points` for a list of every candidate's point (kept apart, so that a list of a
-/// few does not take one and leave it short).
-pub(super) fn spare_all_points() -> Vec<ContactPoint> {
-    kept::spare_as_left(&SPARE_ALL_POINTS, usize::MAX)
-}
-
-/// `hand_back_points` for a list of every candidate's point.
-pub(super) fn hand_back_all_points(points: Vec<ContactPoint>) {
-    kept::hand_back(&SPARE_ALL_POINTS, points)
-}
-
-thread_local! {
-    static PROJECTION_LISTS: kept::Slot<ProjectionLists> = const { kept::Slot::new(None) };
-}
-
-/// Fills this thread's velocity and projection lists and its spare lists with stale
-/// entries of another size (for tests that show a step reads nothing they held).
-#[cfg(test)]
-pub(super) fn poison_lists() {
-    let pose = Pose {
-        x: Vector3::from_element(f64::NAN),
-        p: nalgebra::UnitQuaternion::identity(),
-    };
-    VELOCITY_LISTS.set(Some(Box::new(VelocityLists {
-        persistent: vec![7; 9],
-        turning: vec![8; 9],
-        warm: vec![Vector3::from_element(f64::NAN); 9],
-    })));
-    PROJECTION_LISTS.set(Some(Box::new(ProjectionLists {
-        candidates: vec![
-            Candidate::Pair {
-                pair: 99,
-                point: 99
-            };
-            9
-        ],
-        trial: vec![pose; 9],
-        at: vec![pose; 9],
-    })));
-    let frame = crate::mechanics::contact::BodyFrame::new(&pose);
-    let nan = Vector3::from_element(f64::NAN);
-    let stale = ContactPoint::new(
-        crate::mechanics::contact::ContactGeometry {
-            gap: f64::NAN,
-            normal: nan,
-            point1: nan,
-            point2: nan,
-        },
-        Some(99),
-        &frame,
-        Some(98),
-        &frame,
-        None,
-        f64::NAN,
-        f64::NAN,
-    );
-    SPARE_POINTS.set(vec![vec![stale; 40]; 3]);
-    SPARE_ALL_POINTS.set(vec![vec![stale; 40], vec![stale; 3]]);
-    SPARE_CANDIDATES.set(vec![
-        vec![
-            Candidate::Limit {
-                joint: 99,
-                upper: true
-            };
-            40
-        ];
-        3
-    ]);
-}
-
-/// Cloned where a run forks (`probe_run`): each copy then steps on its own.
+/// Cloned where a run forks (`probe::run`): each copy then steps on its own, in a fresh
+/// workspace.
 #[derive(Clone)]
 pub struct Simulation {
     pub model: Model,
@@ -248,14 +156,13 @@ pub struct Simulation {
     pub(super) minv: Vec<Matrix6<f64>>,
     pub(super) points: Vec<ContactPoint>,
     /// Per candidate, its impulse over the last step (the sum of the step's parts, where it
-    /// was taken in parts: `parts.rs`).
+    /// was taken in parts: `subdivision.rs`).
     pub(super) impulses: Vec<Vector3<f64>>,
     /// Per candidate, its impulse in the last velocity problem solved: the warm start of
     /// the next. Not the step's sum: two flanges pressing against each other in a jammed
     /// journal can carry any equal and opposite pair of impulses that the velocity problem
-    /// does not see, and a warm start from a sum over parts doubled that pair at every split
-    /// step (to 6e11 N·s on a clearance pendulum at h = 0.03 with located impacts, whose
-    /// round-off then gave it 2.3 J).
+    /// does not see, and a warm start from a sum over parts would double that pair at every
+    /// split step until its round-off gave the mechanism energy.
     pub(super) warm: Vec<Vector3<f64>>,
     pub(super) joint_impulses: Vec<f64>,
     /// Candidates in the velocity problem of the last step.
@@ -271,6 +178,9 @@ pub struct Simulation {
     /// next step starts from them and need not check them again.
     pub(super) checked_poses: Vec<Pose>,
     pub stats: RunStats,
+    /// The storage the steps reuse (`workspace.rs`), boxed so that a step takes it and
+    /// puts it back by moving a pointer.
+    pub(super) workspace: Option<Box<StepWorkspace>>,
 }
 
 impl Simulation {
@@ -328,6 +238,7 @@ impl Simulation {
             schedule,
             state,
             stats: RunStats::default(),
+            workspace: None,
         };
         sim.update_geometry(None, None);
         Ok(sim)
@@ -337,19 +248,20 @@ impl Simulation {
     /// `joints`, when given, are the contact points and the joints' violations already
     /// evaluated there (the combined scheme's activation test evaluates the points at the
     /// end-of-step poses, and a projection the joints where it leaves them; violations of
-    /// another time are evaluated again).
+    /// another time are evaluated again). Returns the points `points` replaced.
     pub(super) fn update_geometry(
         &mut self,
         points: Option<Vec<ContactPoint>>,
         joints: Option<JointViolation>,
-    ) {
-        match points {
-            Some(points) => hand_back_all_points(std::mem::replace(&mut self.points, points)),
+    ) -> Option<Vec<ContactPoint>> {
+        let replaced = match points {
+            Some(points) => Some(std::mem::replace(&mut self.points, points)),
             None => {
                 self.model
-                    .evaluate_selected(&self.state.poses, &self.candidates, &mut self.points)
+                    .evaluate_selected(&self.state.poses, &self.candidates, &mut self.points);
+                None
             }
-        }
+        };
         for p in &self.points {
             self.stats.max_penetration = self.stats.max_penetration.max(-p.gap());
         }
@@ -365,6 +277,7 @@ impl Simulation {
             s.max_joint_violation = s.max_joint_violation.max(v.length);
             s.max_joint_angle_violation = s.max_joint_angle_violation.max(v.angle);
         }
+        replaced
     }
 
     pub(super) fn is_guard(&self, i: usize) -> bool {
@@ -445,9 +358,9 @@ impl Simulation {
 
     /// The velocity step with the contacts `active`, but for those that face another one
     /// which the step's motion closes first (`opposed.rs`): they take no impulse.
-    pub(super) fn velocity(&self, active: &[usize]) -> VelocityStep {
-        let Some(dropped) = self.behind_opposed(active) else {
-            return self.velocity_of(active);
+    pub(super) fn velocity(&self, active: &[usize], ws: &mut VelocityWorkspace) -> VelocityStep {
+        let Some(dropped) = self.behind_opposed(active, &mut ws.facing) else {
+            return self.velocity_of(active, ws);
         };
         let kept: Vec<usize> = active
             .iter()
@@ -455,7 +368,7 @@ impl Simulation {
             .filter(|(_, &d)| !d)
             .map(|(&i, _)| i)
             .collect();
-        let mut vs = self.velocity_of(&kept);
+        let mut vs = self.velocity_of(&kept, ws);
         let (mut impulses, mut speeds) = (vs.impulses.into_iter(), vs.normal_speeds.into_iter());
         let v = vs.v.as_slice();
         (vs.impulses, vs.normal_speeds) = active
@@ -473,7 +386,7 @@ impl Simulation {
     }
 
     /// The velocity step with exactly the contacts `active`.
-    fn velocity_of(&self, active: &[usize]) -> VelocityStep {
+    fn velocity_of(&self, active: &[usize], ws: &mut VelocityWorkspace) -> VelocityStep {
         let joints = &self.model.joints;
         let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {
             self.model.joint_rows_into(t, poses, out)
@@ -490,57 +403,96 @@ impl Simulation {
             v0: &self.state.v,
         };
         if active.is_empty() {
-            return velocity_step(&start, &[], &[], None, rows_at);
+            return velocity_step(&start, &[], &[], None, rows_at, &mut ws.step);
         }
-        // The contacts enter with their coefficients, but while settling those that lose
-        // their friction with μ = 0; and, where positions are projected, those closed in the
-        // last step and approaching with e = 0. A closed contact (pressed, or in the last
-        // velocity problem and still touching, as the unloaded twin of a pressed ring is)
-        // has no impact to restitute: what its start-of-step rows show as approach is the
-        // turn of its frame over the last step (a journal sliding around its bore).
-        // Restitution on it pushed the journal off the wall at every step, gaining energy at
-        // coarse steps (0.08 J of 4.9 at h = 0.01 on a 10 mm clearance pendulum). A resting
-        // contact struck through another one has no approach at the step's start, so e
-        // changes nothing there.
+        let contacts = self.active_contacts(active);
+        self.persistent_contacts(active, &mut ws.lists);
+        let VelocityLists {
+            persistent,
+            turning,
+            turning_candidates,
+            warm,
+        } = &ws.lists;
+        let at = |poses: &[Pose], out: &mut Vec<ContactPoint>| {
+            self.model.evaluate_selected(poses, turning_candidates, out);
+            for (c, &k) in out.iter_mut().zip(turning.iter()) {
+                c.mu = contacts[k].mu;
+            }
+        };
+        let active_at = ActiveAt {
+            persistent,
+            turning,
+            at: &at,
+        };
+        velocity_step(
+            &start,
+            &contacts,
+            warm,
+            Some(&active_at),
+            rows_at,
+            &mut ws.step,
+        )
+    }
+
+    /// Whether contact `i` is closed: pressed in the last step, or in its velocity problem
+    /// and still touching (as the unloaded twin of a pressed ring is). Guards never are.
+    fn closed(&self, i: usize) -> bool {
+        !self.is_guard(i)
+            && (self.impulses[i].x > 0.0
+                || (self.active.contains(&i)
+                    && self.points[i].gap() <= self.params.activation_margin))
+    }
+
+    /// The contacts `active` with the coefficients they have in this step.
+    ///
+    /// The contacts enter with their coefficients, but while settling those that lose
+    /// their friction with μ = 0; and, where positions are projected, those closed in the
+    /// last step and approaching with e = 0. A closed contact has no impact to restitute:
+    /// what its start-of-step rows show as approach is the turn of its frame over the last
+    /// step (a journal sliding around its bore), and restitution on it would push the
+    /// journal off the wall at every step, giving the mechanism energy at coarse steps. A
+    /// resting contact struck through another one has no approach at the step's start, so
+    /// e changes nothing there.
+    fn active_contacts(&self, active: &[usize]) -> Vec<ActiveContact<'_>> {
         let settling = self.schedule.settling(self.state.t).is_some();
         let projected = self.params.scheme.projects();
-        let closed = |i: usize| {
-            !self.is_guard(i)
-                && (self.impulses[i].x > 0.0
-                    || (self.active.contains(&i)
-                        && self.points[i].gap() <= self.params.activation_margin))
-        };
-        let contacts: Vec<ActiveContact> = active
+        active
             .iter()
             .map(|&i| {
                 let mut c = ActiveContact::of(&self.points[i]);
                 if settling && self.settle_frictionless[i] {
                     c.mu = 0.0;
                 }
-                if projected && closed(i) && c.point.normal_velocity(self.state.v.as_slice()) < 0.0
-                {
+                let approaching = || c.point.normal_velocity(self.state.v.as_slice()) < 0.0;
+                if projected && self.closed(i) && approaching() {
                     c.e = 0.0;
                 }
                 c
             })
-            .collect();
-        // The closed contacts also act along their rows at mid-step and meet their velocity
-        // condition along those at the step's end (`ActiveAt`). On start-of-step rows a
-        // journal sliding around its bore drifts into the wall. Without a projection nothing
-        // would take it out. With one, the projection lifts the journal back at every step,
-        // which is work done on the mechanism and an error of first order in h: a 10 mm
-        // clearance pendulum in its plane gained 8.9e-3 J of 4.9 at h = 0.03 (none with
-        // these rows), and the mean load on a cam rocker's sliding pivot was 4 % off at
-        // h = 20 µs (2e-4 with them).
-        let mut lists = kept::take(&VELOCITY_LISTS);
+            .collect()
+    }
+
+    /// Into `lists`: the positions among `active` of the closed contacts (persistent), of
+    /// those whose normal can turn, their candidates, and the warm start.
+    ///
+    /// The closed contacts also act along their rows at mid-step and meet their velocity
+    /// condition along those at the step's end (`ActiveAt`). On start-of-step rows a
+    /// journal sliding around its bore drifts into the wall. Without a projection nothing
+    /// would take it out. With one, the projection would lift the journal back at every
+    /// step, which is work done on the mechanism and an error of first order in h (in the
+    /// energy of a swinging clearance pendulum, in the mean load on a cam rocker's
+    /// sliding pivot).
+    fn persistent_contacts(&self, active: &[usize], lists: &mut VelocityLists) {
         let VelocityLists {
             persistent,
             turning,
+            turning_candidates,
             warm,
-        } = &mut *lists;
+        } = lists;
         persistent.clear();
         persistent.extend(
-            (0..active.len()).filter(|&k| closed(active[k]) && !self.points[active[k]].gap_law),
+            (0..active.len())
+                .filter(|&k| self.closed(active[k]) && !self.points[active[k]].gap_law),
         );
         turning.clear();
         turning.extend(
@@ -554,22 +506,8 @@ impl Simulation {
                     _ => true,
                 }),
         );
-        let at = |poses: &[Pose], which: &[usize]| -> Vec<ContactPoint> {
-            let mut candidates = kept::spare(&SPARE_CANDIDATES);
-            candidates.extend(which.iter().map(|&k| self.candidates[active[k]]));
-            let mut out = spare_points(which.len());
-            self.model.evaluate_selected(poses, &candidates, &mut out);
-            kept::hand_back(&SPARE_CANDIDATES, candidates);
-            for (c, &k) in out.iter_mut().zip(which) {
-                c.mu = contacts[k].mu;
-            }
-            out
-        };
-        let active_at = ActiveAt {
-            persistent,
-            turning,
-            at: &at,
-        };
+        turning_candidates.clear();
+        turning_candidates.extend(turning.iter().map(|&k| self.candidates[active[k]]));
         // a guard's index names a point relative to the current closest point, so its last
         // impulse belongs to another point: start it cold
         warm.clear();
@@ -580,7 +518,6 @@ impl Simulation {
                 self.warm[i]
             }
         }));
-        velocity_step(&start, &contacts, warm, Some(&active_at), rows_at)
     }
 
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
@@ -588,14 +525,15 @@ impl Simulation {
     /// chord steps of the step's joint elimination `chord` (`project`). Also returns the
     /// pool's points at the poses it leaves, when it evaluated them there (a projection that
     /// finds the poses admissible leaves them as they are).
-    pub(super) fn project_poses(
+    pub(super) fn project_poses<'w>(
         &self,
         poses: &mut [Pose],
         pool: &[usize],
         which: &dyn Fn(usize, &ContactPoint) -> bool,
         mode: ContactRows,
         chord: Option<&mut Elimination>,
-    ) -> (ProjectionOutcome, Option<Vec<ContactPoint>>) {
+        ws: &'w mut ProjectionWorkspace,
+    ) -> (ProjectionOutcome, Option<&'w [ContactPoint]>) {
         let model = &self.model;
         // chord steps are for joints alone: a pool of contacts may have some projected, and
         // a projection that may need Gauss–Newton starts from the rows' gradients
@@ -610,20 +548,25 @@ impl Simulation {
             };
             return (outcome, None);
         }
-        let mut lists = kept::take(&PROJECTION_LISTS);
+        let ProjectionWorkspace {
+            lists,
+            project: storage,
+        } = ws;
         let ProjectionLists {
             candidates,
             trial,
             at,
-        } = &mut *lists;
+            points,
+        } = lists;
         candidates.clear();
         candidates.extend(pool.iter().map(|&i| self.candidates[i]));
         let candidates = &*candidates;
         // the poses last evaluated and the pool's points there
-        let last = RefCell::new((std::mem::take(at), spare_points(pool.len())));
+        let last = RefCell::new((at, points));
         let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
             let (at, pts) = &mut *last;
+            let (at, pts) = (&mut **at, &mut **pts);
             at.clear();
             at.extend_from_slice(ps);
             model.evaluate_selected(ps, candidates, pts);
@@ -647,35 +590,34 @@ impl Simulation {
             self.params.projection_tolerance,
             self.params.projection_max_iterations,
             chord.as_mut().map(|c| -> ChordStep { c }),
+            storage,
         );
-        // Where the start of the step is admissible, the nearest admissible poses are no
-        // farther from the trial than it is. A projection that lands farther has found
-        // another solution of its equations, not the nearest one: a journal jammed between
-        // its flanges at a coarse step was thrown nine times the step's own motion, and
-        // the bar gained 0.17 J. The step is then taken in halves, as for a projection
-        // that found no solution. (A projection that took no iteration left the trial.)
-        let (last_at, pts) = last.into_inner();
-        let pool_points = if last_at == *poses {
-            Some(pts)
-        } else {
-            hand_back_points(pts);
-            None
-        };
-        *at = last_at;
-        if outcome.iterations > 0 {
-            let tolerance = self.params.projection_tolerance;
-            let admissible = (0..self.points.len())
-                .all(|i| self.is_guard(i) || self.points[i].gap() >= -ADMISSIBLE_DEPTH * tolerance);
-            let slack = mass_distance_of_length(model, tolerance);
-            if admissible && !within_reach(model, trial, poses, &self.state.poses, slack) {
-                outcome.converged = false;
-            }
+        // (a projection that took no iteration left the trial)
+        if outcome.iterations > 0 && self.landed_farther(trial, poses) {
+            outcome.converged = false;
         }
+        let (last_at, pts) = last.into_inner();
+        let pool_points = (last_at.as_slice() == &*poses).then_some(&pts[..]);
         (outcome, pool_points)
     }
 
+    /// Whether a projection from the poses `trial` to `projected` found another solution
+    /// of its equations than the nearest one, which makes the step one to take in halves.
+    ///
+    /// Where the start of the step is admissible, the nearest admissible poses are no
+    /// farther from the trial than it is. A projection that lands farther has found
+    /// another solution (a journal jammed between its flanges at a coarse step, thrown many
+    /// times the step's own motion).
+    fn landed_farther(&self, trial: &[Pose], projected: &[Pose]) -> bool {
+        let depth = self.params.admissible_depth();
+        let admissible =
+            (0..self.points.len()).all(|i| self.is_guard(i) || self.points[i].gap() >= -depth);
+        let slack = mass_distance_of_length(&self.model, self.params.projection_tolerance);
+        admissible && !within_reach(&self.model, trial, projected, &self.state.poses, slack)
+    }
+
     /// Advances one step of size h (the settle's step while settling), in parts where it
-    /// must be (`parts.rs`): halved where it is not resolved, split at an impact with
+    /// must be (`subdivision.rs`): halved where it is not resolved, split at an impact with
     /// `locate_impacts` or where one impact knocks another contact shut.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let (h, ends_at) = self.next_step();
@@ -685,7 +627,10 @@ impl Simulation {
             self.n0 = self.stats.steps;
         }
         let t_end = ends_at.unwrap_or(self.t0 + (self.stats.steps + 1 - self.n0) as f64 * h);
-        let report = self.advance(t_end, Depth::default())?;
+        let mut ws = self.workspace.take().unwrap_or_default();
+        let report = self.advance(t_end, Depth::default(), &mut ws);
+        self.workspace = Some(ws);
+        let report = report?;
         self.stats.steps += 1;
         // the refinement window opens at the end of the step in which its contact closed
         if let (None, Some(r)) = (self.refine_until, &self.schedule.refine) {
@@ -709,7 +654,7 @@ impl Simulation {
     }
 
     /// The step of size `self.h` from the current state, not yet taken.
-    pub(super) fn compute(&self) -> Result<Outcome, SimError> {
+    pub(super) fn compute(&self, ws: &mut StepWorkspace) -> Result<Outcome, SimError> {
         let p = self.step_params();
         // poses a step ended at were checked when that step was computed
         let joints = &self.model.clearance_joints;
@@ -730,8 +675,8 @@ impl Simulation {
                 let active: Vec<usize> = (0..self.points.len())
                     .filter(|&i| forecast(&self.points[i]))
                     .collect();
-                let mut vs = self.velocity(&active);
-                let mut poses = spare_poses(&vs.poses);
+                let mut vs = self.velocity(&active, &mut ws.velocity);
+                let mut poses = ws.velocity.step.copy_poses(&vs.poses);
                 report.active_set_passes = 1;
                 if p.scheme == Scheme::DirectProjection {
                     let chord = vs.elimination.as_deref_mut();
@@ -742,6 +687,7 @@ impl Simulation {
                             &|_, _| true,
                             ContactRows::Inequality,
                             chord,
+                            &mut ws.projection,
                         )
                         .0;
                 }
@@ -754,7 +700,7 @@ impl Simulation {
                     report,
                 }
             }
-            Scheme::CombinedProjection => self.combined(report),
+            Scheme::CombinedProjection => self.combined(report, ws),
         };
         if outcome.vs.v.as_slice().iter().any(|x| !x.is_finite())
             || outcome
@@ -778,7 +724,13 @@ impl Simulation {
     }
 
     /// Takes the computed step: the state at time `t`, its impulses and contact points.
-    pub(super) fn commit(&mut self, outcome: Outcome, t: f64) -> StepReport {
+    /// What the step leaves of its storage goes back to `ws`.
+    pub(super) fn commit(
+        &mut self,
+        outcome: Outcome,
+        t: f64,
+        ws: &mut StepWorkspace,
+    ) -> StepReport {
         let Outcome {
             active,
             mut vs,
@@ -788,26 +740,25 @@ impl Simulation {
             ..
         } = outcome;
         self.record_contacts(&active, &vs);
-        // the elimination's storage back to the thread, for the next step's
-        hand_back_elimination(vs.elimination.take());
+        ws.velocity.step.keep_elimination(vs.elimination.take());
         std::mem::swap(&mut self.joint_impulses, &mut vs.joint_impulses);
         self.active = active;
         std::mem::swap(&mut self.state.v, &mut vs.v);
         let left = std::mem::replace(&mut self.state.poses, poses);
+        ws.velocity.step.keep_poses(left);
         self.state.t = t;
         // `compute` checked the poses of every outcome it returned
         if !self.model.clearance_joints.is_empty() {
             self.checked_poses.clone_from(&self.state.poses);
         }
-        self.update_geometry(points, report.projection.joint_violation);
+        let replaced = self.update_geometry(points, report.projection.joint_violation);
+        ws.activation.keep_points(replaced);
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;
         report.solver = vs.solver;
         report.plastic = vs.plastic;
-        // the storage of the state left and of the step's lists, for the next step's
-        hand_back_poses(left);
-        vs.hand_back();
+        ws.velocity.step.keep_spent(vs);
         report
     }
 

@@ -4,6 +4,7 @@
 //! the step's mean force.
 
 use super::simulation::{Outcome, SimError, Simulation, StepReport};
+use super::workspace::StepWorkspace;
 use nalgebra::Vector3;
 
 /// Halvings of one step at most: a step is never cut below 1/64 of its size.
@@ -80,15 +81,20 @@ impl Simulation {
     /// where it is not resolved (`too_coarse`, or a trial that fails on its geometry, such
     /// as a journal that would leave its bore), split at an impact with `locate_impacts` or
     /// where one impact knocks another contact shut.
-    pub(super) fn advance(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
-        let trial = self.compute();
+    pub(super) fn advance(
+        &mut self,
+        t_end: f64,
+        depth: Depth,
+        ws: &mut StepWorkspace,
+    ) -> Result<StepReport, SimError> {
+        let trial = self.compute(ws);
         let coarse = match &trial {
             Err(SimError::Geometry { .. } | SimError::NonFinite { .. }) => true,
             Err(_) => false,
             Ok(outcome) => self.too_coarse(outcome),
         };
         if coarse && depth.may_halve() {
-            return self.halves(t_end, depth);
+            return self.halves(t_end, depth, ws);
         }
         let trial = trial?;
         // Impacts are located on request, and always where one knocks another contact shut
@@ -107,7 +113,7 @@ impl Simulation {
             false => None,
         };
         let Some((i, s)) = impact else {
-            return Ok(self.commit(trial, t_end));
+            return Ok(self.commit(trial, t_end, ws));
         };
         // the contacts the impact takes together, less those it knocks shut
         let in_step: Vec<usize> = trial
@@ -120,11 +126,16 @@ impl Simulation {
             splits: depth.splits + 1,
             ..depth
         };
-        self.split_at_impact(i, s, &in_step, t_end, depth)
+        self.split_at_impact(i, s, &in_step, t_end, depth, ws)
     }
 
     /// The step as two halves, each taken as `advance` takes a step.
-    pub(super) fn halves(&mut self, t_end: f64, depth: Depth) -> Result<StepReport, SimError> {
+    pub(super) fn halves(
+        &mut self,
+        t_end: f64,
+        depth: Depth,
+        ws: &mut StepWorkspace,
+    ) -> Result<StepReport, SimError> {
         let h = self.h;
         let top = depth.halvings == 0 && depth.splits == 0;
         let depth = Depth {
@@ -134,10 +145,10 @@ impl Simulation {
         let t_mid = self.state.t + 0.5 * h;
         let mut sum = Sum::new(self);
         self.h = 0.5 * h;
-        let first = self.advance(t_mid, depth)?;
+        let first = self.advance(t_mid, depth, ws)?;
         sum.add(self);
         self.h = t_end - self.state.t;
-        let mut report = self.advance(t_end, depth)?;
+        let mut report = self.advance(t_end, depth, ws)?;
         sum.add(self);
         sum.store(self);
         self.h = h;

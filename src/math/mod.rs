@@ -1,7 +1,6 @@
 //! Rotation helpers on top of nalgebra: the skew operator, the quaternion exponential map
-//! and the deterministic tangent basis of a contact normal; (`buffer`, `kept`) the
-//! vectors a step keeps from one step to the next and the per-thread storage that holds
-//! them; (`sized`) loops specialised to the small sizes of joint and contact systems;
+//! and the deterministic tangent basis of a contact normal; (`buffer`) vectors resized in
+//! place, for storage reused from one step to the next; (`sized`) loops specialised to the small sizes of joint and contact systems;
 //! and (`blocks`) the 3- and 6-vectors and 3×3 blocks of slices, dynamic vectors and
 //! matrices, read by index.
 //!
@@ -10,7 +9,6 @@
 
 pub mod blocks;
 pub mod buffer;
-pub mod kept;
 pub mod sized;
 
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};

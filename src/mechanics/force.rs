@@ -12,19 +12,20 @@ use nalgebra::{Matrix3, Vector3};
 /// body-frame torque on x against a body-frame rotation increment or angular velocity of y.
 pub type RotationBlock = (usize, usize, Matrix3<f64>);
 
-/// A vector that is constant or a piecewise-linear function of time (clamped at both ends).
+/// A load vector in time: constant, or a piecewise-linear function of time (clamped at
+/// both ends).
 #[derive(Clone, Debug, PartialEq)]
-pub enum Profile {
+pub enum LoadProfile {
     Constant(Vector3<f64>),
     /// Strictly increasing times with the value at each.
     Table(Vec<(f64, Vector3<f64>)>),
 }
 
-impl Profile {
+impl LoadProfile {
     pub fn at(&self, t: f64) -> Vector3<f64> {
         match self {
-            Profile::Constant(v) => *v,
-            Profile::Table(rows) => crate::math::piecewise_linear(rows, t),
+            LoadProfile::Constant(v) => *v,
+            LoadProfile::Table(rows) => crate::math::piecewise_linear(rows, t),
         }
     }
 }
@@ -90,8 +91,8 @@ pub struct ExternalLoad {
     pub body: usize,
     /// Point of application in body coordinates.
     pub point: Vector3<f64>,
-    pub force: Option<Profile>,
-    pub torque: Option<Profile>,
+    pub force: Option<LoadProfile>,
+    pub torque: Option<LoadProfile>,
     pub frame: Frame,
 }
 
@@ -394,7 +395,7 @@ impl Force {
                 s.preload * d + 0.5 * s.stiffness * d * d
             }
             Force::External(l) => match (&l.force, l.frame) {
-                (Some(Profile::Constant(f)), Frame::World) => {
+                (Some(LoadProfile::Constant(f)), Frame::World) => {
                     -f.dot(&poses[l.body].point(&l.point))
                 }
                 _ => 0.0,
@@ -411,7 +412,7 @@ mod tests {
 
     #[test]
     fn table_profile_interpolates_and_clamps() {
-        let p = Profile::Table(vec![
+        let p = LoadProfile::Table(vec![
             (0.0, Vector3::new(0.0, 0.0, 0.0)),
             (1.0, Vector3::new(2.0, 0.0, 0.0)),
             (3.0, Vector3::new(2.0, 4.0, 0.0)),
@@ -483,7 +484,7 @@ mod tests {
         Force::External(ExternalLoad {
             body: 0,
             point: Vector3::zeros(),
-            force: Some(Profile::Constant(Vector3::new(0.0, 0.0, -1.0))),
+            force: Some(LoadProfile::Constant(Vector3::new(0.0, 0.0, -1.0))),
             torque: None,
             frame: Frame::World,
         })
@@ -509,7 +510,7 @@ mod tests {
         let load = Force::External(ExternalLoad {
             body: 1,
             point: Vector3::new(0.0, 0.0, 1.0),
-            force: Some(Profile::Constant(Vector3::new(0.0, 0.0, -20.0))),
+            force: Some(LoadProfile::Constant(Vector3::new(0.0, 0.0, -20.0))),
             torque: None,
             frame: Frame::World,
         });

@@ -8,5 +8,5 @@ pub mod model;
 
 pub use body::{BodyRef, Motion, Planar, Pose, RigidBody, Shape, Twist};
 pub use contact::{ContactGeometry, ContactPair, ContactPoint, Primitive};
-pub use force::{ExternalLoad, Force, PointSpring, Profile, TorsionalSpring};
+pub use force::{ExternalLoad, Force, LoadProfile, PointSpring, TorsionalSpring};
 pub use model::Model;

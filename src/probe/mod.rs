@@ -1,11 +1,14 @@
 //! Probes: the named outputs of a run (a functional condition, an event time), evaluated
 //! online while the simulation steps, so that a sample keeps a few numbers and no trajectory.
+//! `run` steps a simulation with its probes (extrapolated over a refinement window).
 
+pub mod run;
+
+use crate::input::units::DisplayUnit;
 use crate::integrator::Simulation;
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::Drive;
 use crate::mechanics::{BodyRef, Pose};
-use crate::scene::units::DisplayUnit;
 use nalgebra::{Matrix3x6, Vector3, Vector6};
 use std::ops::Range;
 

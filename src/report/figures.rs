@@ -2,7 +2,7 @@
 //! PNG each. The PNG backend renders text with DejaVu Sans embedded in the binary, so a
 //! machine without system fonts draws readable axes; the SVG leaves text to the browser.
 
-use crate::scene::units::DisplayUnit;
+use crate::input::units::DisplayUnit;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};

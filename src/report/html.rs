@@ -3,7 +3,7 @@
 //! elsewhere: it opens offline in any browser.
 
 use super::{Data, FigureFile};
-use crate::study::store::{META_SCENE, META_STUDY, META_VERSION};
+use crate::study::store::{self, META_SCENE, META_STUDY, META_VERSION};
 use crate::study::summary::percent;
 use anyhow::{Context, Result};
 use std::fmt::Write;
@@ -99,16 +99,38 @@ fn tolerance_table(data: &Data) -> String {
 
 pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     let t = &data.table;
-    let m = &data.manifest;
     let meta = |k: &str| t.metadata.get(k).cloned().unwrap_or_default();
     let study_yaml = meta(META_STUDY);
     let scene_yaml = meta(META_SCENE);
-    let version = meta(META_VERSION);
+    let mut s = String::new();
+    header(&mut s, data, &study_yaml, &scene_yaml);
+    inputs_section(&mut s, data, &study_yaml);
+    summary_section(&mut s, data);
+    sensitivity_section(&mut s, data);
+    s.push_str(&tolerance_table(data));
+    figure_sections(&mut s, data, figures)?;
+    let _ = writeln!(
+        s,
+        "<h2>Study file</h2><pre>{}</pre><h2>Scene file</h2><pre>{}</pre></body></html>",
+        esc(&study_yaml),
+        esc(&scene_yaml)
+    );
+    Ok(s)
+}
+
+/// How many samples are ok, suspect and failed.
+fn counts(t: &store::Table) -> (usize, usize, usize) {
     let suspect = t.rows.iter().filter(|r| r.suspect.is_some()).count();
     let failed = t.rows.iter().filter(|r| r.failed()).count();
-    let ok = t.rows.len() - failed - suspect;
+    (t.rows.len() - failed - suspect, suspect, failed)
+}
+
+/// The page's head, its title, the study's facts and its fidelity.
+fn header(s: &mut String, data: &Data, study_yaml: &str, scene_yaml: &str) {
+    let (t, m) = (&data.table, &data.manifest);
+    let version = t.metadata.get(META_VERSION).cloned().unwrap_or_default();
+    let (ok, suspect, failed) = counts(t);
     let wall_ms: f64 = t.rows.iter().map(|r| r.diagnostics.wall_ms).sum();
-    let mut s = String::new();
     let _ = write!(
         s,
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>mc-study report: {}</title><style>{STYLE}</style></head><body>\n",
@@ -152,8 +174,8 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
     }
     let _ = writeln!(s, "</table>");
     let fidelity = [
-        yaml_block(&scene_yaml, "integrator").map(|b| format!("# scene\n{b}")),
-        yaml_block(&study_yaml, "fidelity").map(|b| format!("# study (overrides)\n{b}")),
+        yaml_block(scene_yaml, "integrator").map(|b| format!("# scene\n{b}")),
+        yaml_block(study_yaml, "fidelity").map(|b| format!("# study (overrides)\n{b}")),
     ]
     .into_iter()
     .flatten()
@@ -167,7 +189,10 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             esc(&fidelity.join("\n"))
         }
     );
+}
 
+/// The inputs as stated, and their correlations.
+fn inputs_section(s: &mut String, data: &Data, study_yaml: &str) {
     if !data.summary.inputs.is_empty() {
         let _ = writeln!(
             s,
@@ -182,7 +207,7 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             );
         }
         let _ = writeln!(s, "</table>");
-        if let Some(c) = yaml_block(&study_yaml, "correlations") {
+        if let Some(c) = yaml_block(study_yaml, "correlations") {
             let _ = writeln!(
                 s,
                 "<p>Correlated through a Gaussian copula:</p><pre>{}</pre>",
@@ -190,8 +215,10 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             );
         }
     }
+}
 
-    // summary table, each output in its display unit
+/// The summary table, each output in its display unit.
+fn summary_section(s: &mut String, data: &Data) {
     let _ = writeln!(s, "<h2>Summary</h2><table><tr><th>output</th><th>unit</th><th>n</th><th>failed</th><th>mean</th><th>95 % CI of mean</th><th>σ</th><th>min</th><th>1 %</th><th>5 %</th><th>50 %</th><th>95 %</th><th>99 %</th><th>max</th><th>out of spec (Wilson 95 %)</th><th>Cp / Cpk</th></tr>");
     for o in &data.summary.outputs {
         let num = |v: f64| o.show(v);
@@ -239,8 +266,11 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
             );
         }
     }
+}
 
-    // sensitivity tables
+/// The sensitivity tables.
+fn sensitivity_section(s: &mut String, data: &Data) {
+    let (t, m) = (&data.table, &data.manifest);
     let inputs: Vec<&str> = t.columns.inputs.iter().map(|(n, _)| n.as_str()).collect();
     let _ = writeln!(s, "<h2>Sensitivity</h2><p>SRC: standardised regression coefficients of a linear model of the output on the inputs; SRC² is the share of variance of input j when the model fits (R² near 1). SRRC: the same on ranks. Pearson / Spearman: correlations.{}</p>",
         if m.design == "saltelli" { " Sobol' indices: first order (Saltelli 2010) and total (Jansen), bootstrap 95 % intervals." } else { " Sobol' indices need <code>design: saltelli</code>." });
@@ -320,9 +350,12 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         }
     }
     let _ = writeln!(s, "</table>");
+}
 
-    s.push_str(&tolerance_table(data));
-
+/// The figures, section by section, with the run-health counts.
+fn figure_sections(s: &mut String, data: &Data, figures: &[FigureFile]) -> Result<()> {
+    let t = &data.table;
+    let (_, suspect, failed) = counts(t);
     for (section, title, intro) in [
         ("tolerances", "Contributors", "Each input's share of the output's variance in the linear stack-up, largest first (a Pareto chart). Trust it where R² is near 1."),
         ("distributions", "Distributions", "Histogram with the fitted normal, the mean, mean ± 3σ and the specification limits; empirical CDF."),
@@ -381,13 +414,7 @@ pub fn page(data: &Data, figures: &[FigureFile]) -> Result<String> {
         }
         let _ = writeln!(s, "</div>");
     }
-    let _ = writeln!(
-        s,
-        "<h2>Study file</h2><pre>{}</pre><h2>Scene file</h2><pre>{}</pre></body></html>",
-        esc(&study_yaml),
-        esc(&scene_yaml)
-    );
-    Ok(s)
+    Ok(())
 }
 
 #[cfg(test)]

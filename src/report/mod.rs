@@ -6,7 +6,7 @@ pub mod figures;
 mod html;
 mod rare_event;
 
-use crate::scene::units::DisplayUnit;
+use crate::input::units::DisplayUnit;
 use crate::study::converge::Convergence;
 use crate::study::given_data::{dependence, first_order, Dependence};
 use crate::study::manifest::{Manifest, Ranges};
@@ -199,8 +199,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
         .iter()
         .map(|(n, _)| short_input(n))
         .collect();
-    for (k, (name, _)) in t.columns.outputs.iter().enumerate() {
-        let s = &data.summary.outputs[k];
+    for k in 0..t.columns.outputs.len() {
         let values: Vec<f64> = ok
             .iter()
             .map(|r| r.outputs[k])
@@ -209,201 +208,248 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
         if values.is_empty() {
             continue;
         }
-        let scale = s.display();
-        let stem = dir.join(format!("hist_{}", slug(name)));
-        let svg = save(
-            &HistogramFigure {
-                title: format!(
-                    "{name}: mean {} {u}, σ {} {u}",
-                    s.show(s.mean),
-                    s.show(s.sd),
-                    u = scale.label
-                ),
-                scale: scale.clone(),
-                name,
-                values: &values,
-                mean: s.mean,
-                sd: s.sd,
-                limits: (s.lower_limit, s.upper_limit),
-            },
-            &stem,
-        )?;
-        out.push(FigureFile {
-            section: "distributions",
-            title: format!("{name}: histogram"),
-            svg,
-        });
-        let svg = save(
-            &EcdfFigure {
-                title: format!("{name}: empirical CDF"),
-                scale: scale.clone(),
-                name,
-                values: &values,
-            },
-            &dir.join(format!("ecdf_{}", slug(name))),
-        )?;
-        out.push(FigureFile {
-            section: "distributions",
-            title: format!("{name}: empirical CDF"),
-            svg,
-        });
-        let svg = save(
-            &ConvergenceFigure {
-                title: format!("{name}: running mean (95 % band) and σ"),
-                scale: scale.clone(),
-                name,
-                values: &values,
-            },
-            &dir.join(format!("conv_{}", slug(name))),
-        )?;
-        out.push(FigureFile {
-            section: "convergence",
-            title: format!("{name}: running statistics"),
-            svg,
-        });
-        for (j, (input, input_unit)) in t.columns.inputs.iter().enumerate() {
-            let points: Vec<(f64, f64)> = thin(
-                &ok.iter()
-                    .filter(|r| r.outputs[k].is_finite())
-                    .map(|r| (r.inputs[j], r.outputs[k]))
-                    .collect::<Vec<_>>(),
-            );
-            let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
-            let corr = data
-                .summary
-                .correlations
-                .iter()
-                .find(|c| &c.input == input && &c.output == name);
-            let title = match corr {
-                Some(c) if !c.pearson.is_finite() => {
-                    format!(
-                        "{name} vs {}: one of them is constant, no correlation",
-                        inputs[j]
-                    )
-                }
-                Some(c) => format!(
-                    "{name} vs {}: Pearson {:.2}, Spearman {:.2}",
-                    inputs[j], c.pearson, c.spearman
-                ),
-                None => format!("{name} vs {}", inputs[j]),
-            };
-            let svg = save(
-                &ScatterFigure {
-                    title: title.clone(),
-                    x_name: &inputs[j],
-                    x_scale: DisplayUnit::for_values(input_unit, &xs),
-                    y_name: name,
-                    y_scale: scale.clone(),
-                    points: &points,
-                },
-                &dir.join(format!("scatter_{}_{}", slug(name), slug(input))),
-            )?;
-            out.push(FigureFile {
-                section: "scatter",
-                title,
-                svg,
-            });
-        }
-        let sens = &data.sensitivity[k];
-        if let Some((src, r2)) = &sens.src {
-            let svg = save(
-                &BarsFigure {
-                    title: format!("{name}: SRC² (linear model R² = {r2:.3})"),
-                    y_desc: "SRC² (share of variance if linear)".into(),
-                    inputs: inputs.clone(),
-                    series: vec![BarSeries {
-                        label: "SRC²".into(),
-                        values: src.iter().map(|c| c * c).collect(),
-                        intervals: None,
-                    }],
-                },
-                &dir.join(format!("src_{}", slug(name))),
-            )?;
-            out.push(FigureFile {
-                section: "sensitivity",
-                title: format!("{name}: SRC²"),
-                svg,
-            });
-        }
-        if let Some(est) = &sens.first_order {
-            let svg = save(
-                &BarsFigure {
-                    title: format!("{name}: first-order indices from the samples (rank estimator)"),
-                    y_desc: "S (95 % interval)".into(),
-                    inputs: inputs.clone(),
-                    series: vec![BarSeries {
-                        label: "first order S".into(),
-                        values: est.iter().map(|e| e.value).collect(),
-                        intervals: Some(est.iter().map(|e| e.ci95).collect()),
-                    }],
-                },
-                &dir.join(format!("first_order_{}", slug(name))),
-            )?;
-            out.push(FigureFile {
-                section: "sensitivity",
-                title: format!("{name}: first-order indices"),
-                svg,
-            });
-        }
-        if let Some(st) = data.tolerances.get(k).and_then(|c| c.stack_up.as_ref()) {
-            let mut order: Vec<usize> = (0..inputs.len()).collect();
-            order.sort_by(|&a, &b| st.contributions[b].total_cmp(&st.contributions[a]));
-            let svg = save(
-                &BarsFigure {
-                    title: format!(
-                        "{name}: contributors to the variance (RSS, R² = {:.3}{})",
-                        st.r2,
-                        if st.trusted() {
-                            ""
-                        } else {
-                            ", not linear enough to trust"
-                        }
-                    ),
-                    y_desc: "share of σ² [%]".into(),
-                    inputs: order.iter().map(|&j| inputs[j].clone()).collect(),
-                    series: vec![BarSeries {
-                        label: "contribution".into(),
-                        values: order.iter().map(|&j| st.contributions[j]).collect(),
-                        intervals: None,
-                    }],
-                },
-                &dir.join(format!("contributors_{}", slug(name))),
-            )?;
-            out.push(FigureFile {
-                section: "tolerances",
-                title: format!("{name}: contributors"),
-                svg,
-            });
-        }
-        if let Some(sobol) = &sens.sobol {
-            let svg = save(
-                &BarsFigure {
-                    title: format!("{name}: Sobol' indices ({} base rows)", sobol.base_rows),
-                    y_desc: "index (bootstrap 95 % interval)".into(),
-                    inputs: inputs.clone(),
-                    series: vec![
-                        BarSeries {
-                            label: "first order S".into(),
-                            values: sobol.first.iter().map(|e| e.value).collect(),
-                            intervals: Some(sobol.first.iter().map(|e| e.ci95).collect()),
-                        },
-                        BarSeries {
-                            label: "total ST".into(),
-                            values: sobol.total.iter().map(|e| e.value).collect(),
-                            intervals: Some(sobol.total.iter().map(|e| e.ci95).collect()),
-                        },
-                    ],
-                },
-                &dir.join(format!("sobol_{}", slug(name))),
-            )?;
-            out.push(FigureFile {
-                section: "sensitivity",
-                title: format!("{name}: Sobol' indices"),
-                svg,
-            });
-        }
+        distribution_figures(data, k, &values, dir, &mut out)?;
+        scatter_figures(data, k, &ok, &inputs, dir, &mut out)?;
+        sensitivity_figures(data, k, &inputs, dir, &mut out)?;
     }
-    // run health: only meaningful for simulated samples
+    health_figures(t, dir, &mut out)?;
+    Ok(out)
+}
+
+/// Output `k`'s histogram, empirical CDF and running statistics, over its finite `values`.
+fn distribution_figures(
+    data: &Data,
+    k: usize,
+    values: &[f64],
+    dir: &Path,
+    out: &mut Vec<FigureFile>,
+) -> Result<()> {
+    let (name, s) = (&data.table.columns.outputs[k].0, &data.summary.outputs[k]);
+    let scale = s.display();
+    let stem = dir.join(format!("hist_{}", slug(name)));
+    let svg = save(
+        &HistogramFigure {
+            title: format!(
+                "{name}: mean {} {u}, σ {} {u}",
+                s.show(s.mean),
+                s.show(s.sd),
+                u = scale.label
+            ),
+            scale: scale.clone(),
+            name,
+            values,
+            mean: s.mean,
+            sd: s.sd,
+            limits: (s.lower_limit, s.upper_limit),
+        },
+        &stem,
+    )?;
+    out.push(FigureFile {
+        section: "distributions",
+        title: format!("{name}: histogram"),
+        svg,
+    });
+    let svg = save(
+        &EcdfFigure {
+            title: format!("{name}: empirical CDF"),
+            scale: scale.clone(),
+            name,
+            values,
+        },
+        &dir.join(format!("ecdf_{}", slug(name))),
+    )?;
+    out.push(FigureFile {
+        section: "distributions",
+        title: format!("{name}: empirical CDF"),
+        svg,
+    });
+    let svg = save(
+        &ConvergenceFigure {
+            title: format!("{name}: running mean (95 % band) and σ"),
+            scale: scale.clone(),
+            name,
+            values,
+        },
+        &dir.join(format!("conv_{}", slug(name))),
+    )?;
+    out.push(FigureFile {
+        section: "convergence",
+        title: format!("{name}: running statistics"),
+        svg,
+    });
+    Ok(())
+}
+
+/// Output `k` against every input, over the samples `ok`.
+fn scatter_figures(
+    data: &Data,
+    k: usize,
+    ok: &[&store::Row],
+    inputs: &[String],
+    dir: &Path,
+    out: &mut Vec<FigureFile>,
+) -> Result<()> {
+    let (t, name) = (&data.table, &data.table.columns.outputs[k].0);
+    let scale = data.summary.outputs[k].display();
+    for (j, (input, input_unit)) in t.columns.inputs.iter().enumerate() {
+        let points: Vec<(f64, f64)> = thin(
+            &ok.iter()
+                .filter(|r| r.outputs[k].is_finite())
+                .map(|r| (r.inputs[j], r.outputs[k]))
+                .collect::<Vec<_>>(),
+        );
+        let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+        let corr = data
+            .summary
+            .correlations
+            .iter()
+            .find(|c| &c.input == input && &c.output == name);
+        let title = match corr {
+            Some(c) if !c.pearson.is_finite() => {
+                format!(
+                    "{name} vs {}: one of them is constant, no correlation",
+                    inputs[j]
+                )
+            }
+            Some(c) => format!(
+                "{name} vs {}: Pearson {:.2}, Spearman {:.2}",
+                inputs[j], c.pearson, c.spearman
+            ),
+            None => format!("{name} vs {}", inputs[j]),
+        };
+        let svg = save(
+            &ScatterFigure {
+                title: title.clone(),
+                x_name: &inputs[j],
+                x_scale: DisplayUnit::for_values(input_unit, &xs),
+                y_name: name,
+                y_scale: scale.clone(),
+                points: &points,
+            },
+            &dir.join(format!("scatter_{}_{}", slug(name), slug(input))),
+        )?;
+        out.push(FigureFile {
+            section: "scatter",
+            title,
+            svg,
+        });
+    }
+    Ok(())
+}
+
+/// Output `k`'s sensitivity bars: SRC², first-order indices from the samples, the
+/// tolerances' contributions, and Sobol' indices where the design gives them.
+fn sensitivity_figures(
+    data: &Data,
+    k: usize,
+    inputs: &[String],
+    dir: &Path,
+    out: &mut Vec<FigureFile>,
+) -> Result<()> {
+    let name = &data.table.columns.outputs[k].0;
+    let sens = &data.sensitivity[k];
+    if let Some((src, r2)) = &sens.src {
+        let svg = save(
+            &BarsFigure {
+                title: format!("{name}: SRC² (linear model R² = {r2:.3})"),
+                y_desc: "SRC² (share of variance if linear)".into(),
+                inputs: inputs.to_vec(),
+                series: vec![BarSeries {
+                    label: "SRC²".into(),
+                    values: src.iter().map(|c| c * c).collect(),
+                    intervals: None,
+                }],
+            },
+            &dir.join(format!("src_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "sensitivity",
+            title: format!("{name}: SRC²"),
+            svg,
+        });
+    }
+    if let Some(est) = &sens.first_order {
+        let svg = save(
+            &BarsFigure {
+                title: format!("{name}: first-order indices from the samples (rank estimator)"),
+                y_desc: "S (95 % interval)".into(),
+                inputs: inputs.to_vec(),
+                series: vec![BarSeries {
+                    label: "first order S".into(),
+                    values: est.iter().map(|e| e.value).collect(),
+                    intervals: Some(est.iter().map(|e| e.ci95).collect()),
+                }],
+            },
+            &dir.join(format!("first_order_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "sensitivity",
+            title: format!("{name}: first-order indices"),
+            svg,
+        });
+    }
+    if let Some(st) = data.tolerances.get(k).and_then(|c| c.stack_up.as_ref()) {
+        let mut order: Vec<usize> = (0..inputs.len()).collect();
+        order.sort_by(|&a, &b| st.contributions[b].total_cmp(&st.contributions[a]));
+        let svg = save(
+            &BarsFigure {
+                title: format!(
+                    "{name}: contributors to the variance (RSS, R² = {:.3}{})",
+                    st.r2,
+                    if st.trusted() {
+                        ""
+                    } else {
+                        ", not linear enough to trust"
+                    }
+                ),
+                y_desc: "share of σ² [%]".into(),
+                inputs: order.iter().map(|&j| inputs[j].clone()).collect(),
+                series: vec![BarSeries {
+                    label: "contribution".into(),
+                    values: order.iter().map(|&j| st.contributions[j]).collect(),
+                    intervals: None,
+                }],
+            },
+            &dir.join(format!("contributors_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "tolerances",
+            title: format!("{name}: contributors"),
+            svg,
+        });
+    }
+    if let Some(sobol) = &sens.sobol {
+        let svg = save(
+            &BarsFigure {
+                title: format!("{name}: Sobol' indices ({} base rows)", sobol.base_rows),
+                y_desc: "index (bootstrap 95 % interval)".into(),
+                inputs: inputs.to_vec(),
+                series: vec![
+                    BarSeries {
+                        label: "first order S".into(),
+                        values: sobol.first.iter().map(|e| e.value).collect(),
+                        intervals: Some(sobol.first.iter().map(|e| e.ci95).collect()),
+                    },
+                    BarSeries {
+                        label: "total ST".into(),
+                        values: sobol.total.iter().map(|e| e.value).collect(),
+                        intervals: Some(sobol.total.iter().map(|e| e.ci95).collect()),
+                    },
+                ],
+            },
+            &dir.join(format!("sobol_{}", slug(name))),
+        )?;
+        out.push(FigureFile {
+            section: "sensitivity",
+            title: format!("{name}: Sobol' indices"),
+            svg,
+        });
+    }
+    Ok(())
+}
+
+/// The run-health histograms: only meaningful for simulated samples.
+fn health_figures(t: &store::Table, dir: &Path, out: &mut Vec<FigureFile>) -> Result<()> {
     let steps = column(t, |r| r.diagnostics.steps as f64);
     if steps.iter().any(|&s| s > 0.0) {
         for (label, file, values) in [
@@ -437,7 +483,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
             });
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Builds the report of the result directory `out`.

@@ -5,7 +5,7 @@ use super::error::{line, SceneError};
 use super::fields::{opt_vec3, orientation, positive, values, vec3, R};
 use super::schema::Name;
 use super::schema::{BodySpec, ShapeSpec};
-use super::units::Dim;
+use crate::input::units::Dim;
 use crate::mechanics::{Model, Motion, Planar, RigidBody, Shape};
 use nalgebra::Matrix3;
 

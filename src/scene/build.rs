@@ -8,8 +8,8 @@ use super::fields::{count, positive, vec3, R};
 use super::integrator::apply_integrator;
 use super::joints::{joint, BuiltJoint};
 use super::schema::SceneSpec;
-use super::units::Dim;
 use super::{Scene, Tuning};
+use crate::input::units::Dim;
 use crate::integrator::assembly::{assemble, AssemblyError, Targets};
 use crate::integrator::IntegrationParameters;
 use crate::mechanics::Model;
@@ -36,23 +36,7 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         },
         ..Default::default()
     };
-    if spec.bodies.is_empty() {
-        return Err(SceneError::at(
-            None,
-            "bodies",
-            "a scene needs at least one body",
-        ));
-    }
-    for (i, b) in spec.bodies.iter().enumerate() {
-        if model.body_index(&b.name.value).is_some() {
-            return Err(SceneError::at(
-                line(&b.name),
-                format!("bodies[{i}].name"),
-                format!("duplicate body name `{}`", b.name.value),
-            ));
-        }
-        model.bodies.push(super::bodies::body(b, i)?);
-    }
+    add_bodies(&mut model, spec)?;
     if let Some(plane) = &spec.plane {
         super::bodies::hold_to_plane(&mut model, plane, &spec.bodies)?;
     }
@@ -64,38 +48,7 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         let f = super::forces::force(&model, fs, i)?;
         model.forces.push(f);
     }
-    let mut targets = Targets::default();
-    for (i, j) in spec.joints.iter().enumerate() {
-        if j.name.value.is_empty() || j.name.value.contains('.') {
-            return Err(SceneError::at(
-                line(&j.name),
-                format!("joints[{i}].name"),
-                "must be non-empty and without `.` (names are parts of parameter paths)",
-            ));
-        }
-        if model.joints.iter().any(|k| k.name == j.name.value)
-            || model
-                .clearance_joints
-                .iter()
-                .any(|k| k.name == j.name.value)
-        {
-            return Err(SceneError::at(
-                line(&j.name),
-                format!("joints[{i}].name"),
-                format!("duplicate joint name `{}`", j.name.value),
-            ));
-        }
-        match joint(&model, j, i)? {
-            BuiltJoint::Ideal(joint, start) => {
-                model.joints.push(joint);
-                targets.joints.push(start);
-            }
-            BuiltJoint::Clearance(joint, offset) => {
-                model.clearance_joints.push(joint);
-                targets.eccentricities.push(offset);
-            }
-        }
-    }
+    let targets = add_joints(&mut model, spec)?;
     let duration = positive(&spec.duration, Dim::TIME, "duration")?;
     let mut params = IntegrationParameters::default();
     apply_integrator(&spec.integrator, &mut params, "integrator")?;
@@ -137,4 +90,64 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         duration,
         record_every,
     })
+}
+
+/// The document's bodies, each name once.
+fn add_bodies(model: &mut Model, spec: &SceneSpec) -> R<()> {
+    if spec.bodies.is_empty() {
+        return Err(SceneError::at(
+            None,
+            "bodies",
+            "a scene needs at least one body",
+        ));
+    }
+    for (i, b) in spec.bodies.iter().enumerate() {
+        if model.body_index(&b.name.value).is_some() {
+            return Err(SceneError::at(
+                line(&b.name),
+                format!("bodies[{i}].name"),
+                format!("duplicate body name `{}`", b.name.value),
+            ));
+        }
+        model.bodies.push(super::bodies::body(b, i)?);
+    }
+    Ok(())
+}
+
+/// The document's joints, each name once and fit for parameter paths, with the
+/// coordinates and eccentricities the assembly aims at.
+fn add_joints(model: &mut Model, spec: &SceneSpec) -> R<Targets> {
+    let mut targets = Targets::default();
+    for (i, j) in spec.joints.iter().enumerate() {
+        if j.name.value.is_empty() || j.name.value.contains('.') {
+            return Err(SceneError::at(
+                line(&j.name),
+                format!("joints[{i}].name"),
+                "must be non-empty and without `.` (names are parts of parameter paths)",
+            ));
+        }
+        if model.joints.iter().any(|k| k.name == j.name.value)
+            || model
+                .clearance_joints
+                .iter()
+                .any(|k| k.name == j.name.value)
+        {
+            return Err(SceneError::at(
+                line(&j.name),
+                format!("joints[{i}].name"),
+                format!("duplicate joint name `{}`", j.name.value),
+            ));
+        }
+        match joint(model, j, i)? {
+            BuiltJoint::Ideal(joint, start) => {
+                model.joints.push(joint);
+                targets.joints.push(start);
+            }
+            BuiltJoint::Clearance(joint, offset) => {
+                model.clearance_joints.push(joint);
+                targets.eccentricities.push(offset);
+            }
+        }
+    }
+    Ok(targets)
 }

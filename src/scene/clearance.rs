@@ -7,7 +7,7 @@ use super::fields::{
 };
 use super::joints::{joint_bodies, BuiltJoint};
 use super::schema::{JointSpec, Vector, Q};
-use super::units::Dim;
+use crate::input::units::Dim;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::{BodyRef, Model};
 use nalgebra::Vector3;
@@ -40,39 +40,7 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
         ));
     }
     let e = restitution(&spec.e, &f("e"))?;
-    let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
-    let (bore_center, bore_axis, journal_point, journal_axis) =
-        if spec.anchor.is_some() || spec.axis.is_some() {
-            let anchor = given(
-                &spec.anchor,
-                l,
-                &f("anchor"),
-                "(bore centre, world, at assembly)",
-            )?;
-            let anchor = vec3(anchor, Dim::LENGTH, &f("anchor"))?;
-            let axis = given(&spec.axis, l, &f("axis"), "for a revolute-clearance joint")?;
-            let axis = unit_vec3(axis, &f("axis"))?;
-            let (pa, pb) = (pose(a), pose(b));
-            (
-                pa.local(&anchor),
-                pa.p.inverse_transform_vector(&axis),
-                pb.local(&anchor),
-                pb.p.inverse_transform_vector(&axis),
-            )
-        } else {
-            let why = "(or give anchor and axis in world coordinates)";
-            let point = |v: &Option<Vector>, name: &str| {
-                vec3(given(v, l, &f(name), why)?, Dim::LENGTH, &f(name))
-            };
-            let direction =
-                |v: &Option<Vector>, name: &str| unit_vec3(given(v, l, &f(name), why)?, &f(name));
-            (
-                point(&spec.anchor_a, "anchor_a")?,
-                direction(&spec.axis_a, "axis_a")?,
-                point(&spec.anchor_b, "anchor_b")?,
-                direction(&spec.axis_b, "axis_b")?,
-            )
-        };
+    let [bore_center, bore_axis, journal_point, journal_axis] = frames(model, spec, (a, b), &f)?;
     let clearance = required(&spec.clearance, "clearance", Dim::LENGTH)?;
     // the flange bears on the bore's end face at any eccentricity only beyond the bore
     // radius plus the clearance
@@ -91,7 +59,87 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
             r
         }
     };
-    let eccentricity = match spec.initial.as_ref() {
+    let eccentricity = initial_eccentricity(spec, bore_axis, clearance, &f)?;
+    let joint = ClearanceJoint {
+        name: spec.name.value.clone(),
+        bore_body: a,
+        journal_body: b,
+        bore_center,
+        bore_axis,
+        bore_length: required(&spec.bore_length, "bore_length", Dim::LENGTH)?,
+        journal_point,
+        journal_axis,
+        journal_radius,
+        clearance,
+        axial_play: spec
+            .axial_play
+            .as_ref()
+            .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
+        flange_radius,
+        rim_points: rim,
+        mu: spec
+            .mu
+            .as_ref()
+            .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
+        e,
+    };
+    Ok(BuiltJoint::Clearance(joint, eccentricity))
+}
+
+/// The bore's centre and axis in the bore body's frame and the journal's point and axis in
+/// the journal body's frame, in this order: from a world anchor and axis at the written configuration, or
+/// given in the body frames.
+fn frames(
+    model: &Model,
+    spec: &JointSpec,
+    bodies: (BodyRef, BodyRef),
+    f: &dyn Fn(&str) -> String,
+) -> R<[Vector3<f64>; 4]> {
+    let (a, b) = bodies;
+    let l = line(&spec.name);
+    let pose = |r: BodyRef| r.map_or(crate::mechanics::Pose::identity(), |i| model.bodies[i].pose);
+    Ok(if spec.anchor.is_some() || spec.axis.is_some() {
+        let anchor = given(
+            &spec.anchor,
+            l,
+            &f("anchor"),
+            "(bore centre, world, at assembly)",
+        )?;
+        let anchor = vec3(anchor, Dim::LENGTH, &f("anchor"))?;
+        let axis = given(&spec.axis, l, &f("axis"), "for a revolute-clearance joint")?;
+        let axis = unit_vec3(axis, &f("axis"))?;
+        let (pa, pb) = (pose(a), pose(b));
+        [
+            pa.local(&anchor),
+            pa.p.inverse_transform_vector(&axis),
+            pb.local(&anchor),
+            pb.p.inverse_transform_vector(&axis),
+        ]
+    } else {
+        let why = "(or give anchor and axis in world coordinates)";
+        let point = |v: &Option<Vector>, name: &str| {
+            vec3(given(v, l, &f(name), why)?, Dim::LENGTH, &f(name))
+        };
+        let direction =
+            |v: &Option<Vector>, name: &str| unit_vec3(given(v, l, &f(name), why)?, &f(name));
+        [
+            point(&spec.anchor_a, "anchor_a")?,
+            direction(&spec.axis_a, "axis_a")?,
+            point(&spec.anchor_b, "anchor_b")?,
+            direction(&spec.axis_b, "axis_b")?,
+        ]
+    })
+}
+
+/// The journal's initial eccentricity in its bore (default: centred): perpendicular to
+/// the bore axis and shorter than the clearance.
+fn initial_eccentricity(
+    spec: &JointSpec,
+    bore_axis: Vector3<f64>,
+    clearance: f64,
+    f: &dyn Fn(&str) -> String,
+) -> R<Vector3<f64>> {
+    Ok(match spec.initial.as_ref() {
         None => Vector3::zeros(),
         Some(init) => {
             let s = &init.value;
@@ -117,29 +165,5 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
             }
             ecc
         }
-    };
-    let joint = ClearanceJoint {
-        name: spec.name.value.clone(),
-        bore_body: a,
-        journal_body: b,
-        bore_center,
-        bore_axis,
-        bore_length: required(&spec.bore_length, "bore_length", Dim::LENGTH)?,
-        journal_point,
-        journal_axis,
-        journal_radius,
-        clearance,
-        axial_play: spec
-            .axial_play
-            .as_ref()
-            .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
-        flange_radius,
-        rim_points: rim,
-        mu: spec
-            .mu
-            .as_ref()
-            .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
-        e,
-    };
-    Ok(BuiltJoint::Clearance(joint, eccentricity))
+    })
 }

@@ -12,7 +12,7 @@
 
 use super::error::{line, SceneError};
 use super::schema::Name;
-use crate::expr::Expr;
+use crate::input::expr::Expr;
 use serde::Deserialize;
 
 #[derive(Debug, Deserialize)]
@@ -100,7 +100,7 @@ impl FunctionScene {
         }
         let mut outputs: Vec<FunctionOutput> = Vec::new();
         for (i, o) in spec.outputs.iter().enumerate() {
-            if let Some(why) = crate::study::store::column_name_error(&o.name.value) {
+            if let Some(why) = crate::input::columns::column_name_error(&o.name.value) {
                 return Err(SceneError::at(
                     line(&o.name),
                     format!("outputs[{i}].name"),

@@ -4,7 +4,7 @@
 
 use super::error::{line, SceneError};
 use super::schema::{Name, OrientationSpec, Vector, Q};
-use super::units::{Dim, Quantity};
+use crate::input::units::{Dim, Quantity};
 use crate::mechanics::{BodyRef, Model};
 use nalgebra::{Quaternion, Unit, UnitQuaternion, Vector3};
 use serde_saphyr::Spanned;

@@ -4,7 +4,7 @@
 use super::error::{line, SceneError};
 use super::fields::{count, non_negative, positive, scalar, R};
 use super::schema::IntegratorSpec;
-use super::units::Dim;
+use crate::input::units::Dim;
 use crate::integrator::{IntegrationParameters, Preset, Scheme};
 
 /// Applies an `integrator` block (or a study's `fidelity` block, named by `prefix`) on top

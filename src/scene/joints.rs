@@ -4,8 +4,8 @@
 use super::clearance::clearance_joint;
 use super::error::{line, SceneError};
 use super::fields::{body_ref, given, opt_vec3, restitution, scalar, unit_vec3, vec3, R};
-use super::schema::{JointSpec, Vector};
-use super::units::{Dim, Quantity};
+use super::schema::{DriveSpec, JointSpec, LimitsSpec, Vector};
+use crate::input::units::{Dim, Quantity};
 use crate::integrator::assembly::JointStart;
 use crate::mechanics::contact::clearance::ClearanceJoint;
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
@@ -150,99 +150,136 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
     let initial = initial(spec, kind, i)?;
     let drive = match &spec.drive {
         None => None,
-        Some(d) => {
-            if kind != JointKind::Revolute && kind != JointKind::Prismatic {
-                return Err(SceneError::at(
-                    line(d),
-                    f("drive"),
-                    "only revolute and prismatic joints can be driven",
-                ));
-            }
-            let rot = kind == JointKind::Revolute;
-            let (vel_dim, pos_dim, eff_dim) = if rot {
-                (Dim::ANGULAR_VELOCITY, Dim::NONE, Dim::TORQUE)
-            } else {
-                (Dim::VELOCITY, Dim::LENGTH, Dim::FORCE)
-            };
-            let s = &d.value;
-            let given = [
-                s.velocity.is_some(),
-                s.position_table.is_some(),
-                s.effort.is_some(),
-                s.effort_table.is_some(),
-            ];
-            if given.iter().filter(|&&g| g).count() != 1 {
-                return Err(SceneError::at(
-                    line(d),
-                    f("drive"),
-                    "give exactly one of `velocity`, `position_table`, `effort`, `effort_table`",
-                ));
-            }
-            Some(if let Some(v) = &s.velocity {
-                let rate = scalar(v, vel_dim, &f("drive.velocity"))?;
-                if initial.rate.is_some_and(|r| r != rate) {
-                    return Err(SceneError::at(
-                        line(v),
-                        f("initial"),
-                        format!("the initial rate contradicts the drive's velocity {rate}: give one of them"),
-                    ));
-                }
-                Drive::Position(ScalarProfile::Rate {
-                    start: initial.coordinate.unwrap_or(0.0),
-                    rate,
-                })
-            } else if let Some(t) = &s.position_table {
-                if initial.coordinate.is_some() || initial.rate.is_some() {
-                    return Err(SceneError::at(
-                        line(t),
-                        f("initial"),
-                        "a joint driven by a position table starts where the table does: give no initial condition",
-                    ));
-                }
-                Drive::Position(scalar_table(t, pos_dim, &f("drive.position_table"))?)
-            } else if let Some(e) = &s.effort {
-                Drive::Effort(ScalarProfile::Rate {
-                    start: scalar(e, eff_dim, &f("drive.effort"))?,
-                    rate: 0.0,
-                })
-            } else {
-                Drive::Effort(scalar_table(
-                    s.effort_table.as_ref().expect("one drive given"),
-                    eff_dim,
-                    &f("drive.effort_table"),
-                )?)
-            })
-        }
+        Some(d) => Some(drive(d, kind, &initial, &f)?),
     };
     let limits = match &spec.limits {
         None => None,
-        Some(l) => {
-            if kind != JointKind::Revolute && kind != JointKind::Prismatic {
-                return Err(SceneError::at(
-                    line(l),
-                    f("limits"),
-                    "only revolute and prismatic joints have limits",
-                ));
-            }
-            let dim = if kind == JointKind::Revolute {
-                Dim::NONE
-            } else {
-                Dim::LENGTH
-            };
-            let lower = scalar(&l.value.lower, dim, &f("limits.lower"))?;
-            let upper = scalar(&l.value.upper, dim, &f("limits.upper"))?;
-            let start = initial.coordinate.unwrap_or(0.0);
-            if lower > start || upper < start || lower >= upper {
-                return Err(SceneError::at(
-                    line(l),
-                    f("limits"),
-                    format!("need lower ≤ {start} ≤ upper and lower < upper (the joint starts at {start}, measured from the written configuration), got [{lower}, {upper}]"),
-                ));
-            }
-            let e = restitution(&l.value.e, &f("limits.e"))?;
-            Some(JointLimits { lower, upper, e })
-        }
+        Some(l) => Some(limits(l, kind, &initial, &f)?),
     };
+    let joint = placed(model, spec, kind, (a, b), drive, &f)?;
+    let joint = match limits {
+        Some(l) => joint.with_limits(l),
+        None => joint,
+    };
+    Ok(BuiltJoint::Ideal(joint, initial))
+}
+
+/// A joint's drive: a velocity, a position table, an effort or an effort table.
+fn drive(
+    d: &Spanned<DriveSpec>,
+    kind: JointKind,
+    initial: &JointStart,
+    f: &dyn Fn(&str) -> String,
+) -> R<Drive> {
+    if kind != JointKind::Revolute && kind != JointKind::Prismatic {
+        return Err(SceneError::at(
+            line(d),
+            f("drive"),
+            "only revolute and prismatic joints can be driven",
+        ));
+    }
+    let rot = kind == JointKind::Revolute;
+    let (vel_dim, pos_dim, eff_dim) = if rot {
+        (Dim::ANGULAR_VELOCITY, Dim::NONE, Dim::TORQUE)
+    } else {
+        (Dim::VELOCITY, Dim::LENGTH, Dim::FORCE)
+    };
+    let s = &d.value;
+    let given = [
+        s.velocity.is_some(),
+        s.position_table.is_some(),
+        s.effort.is_some(),
+        s.effort_table.is_some(),
+    ];
+    if given.iter().filter(|&&g| g).count() != 1 {
+        return Err(SceneError::at(
+            line(d),
+            f("drive"),
+            "give exactly one of `velocity`, `position_table`, `effort`, `effort_table`",
+        ));
+    }
+    Ok(if let Some(v) = &s.velocity {
+        let rate = scalar(v, vel_dim, &f("drive.velocity"))?;
+        if initial.rate.is_some_and(|r| r != rate) {
+            return Err(SceneError::at(
+                line(v),
+                f("initial"),
+                format!(
+                    "the initial rate contradicts the drive's velocity {rate}: give one of them"
+                ),
+            ));
+        }
+        Drive::Position(ScalarProfile::Rate {
+            start: initial.coordinate.unwrap_or(0.0),
+            rate,
+        })
+    } else if let Some(t) = &s.position_table {
+        if initial.coordinate.is_some() || initial.rate.is_some() {
+            return Err(SceneError::at(
+                line(t),
+                f("initial"),
+                "a joint driven by a position table starts where the table does: give no initial condition",
+            ));
+        }
+        Drive::Position(scalar_table(t, pos_dim, &f("drive.position_table"))?)
+    } else if let Some(e) = &s.effort {
+        Drive::Effort(ScalarProfile::Rate {
+            start: scalar(e, eff_dim, &f("drive.effort"))?,
+            rate: 0.0,
+        })
+    } else {
+        Drive::Effort(scalar_table(
+            s.effort_table.as_ref().expect("one drive given"),
+            eff_dim,
+            &f("drive.effort_table"),
+        )?)
+    })
+}
+
+/// A joint's limits, around its initial coordinate.
+fn limits(
+    l: &Spanned<LimitsSpec>,
+    kind: JointKind,
+    initial: &JointStart,
+    f: &dyn Fn(&str) -> String,
+) -> R<JointLimits> {
+    if kind != JointKind::Revolute && kind != JointKind::Prismatic {
+        return Err(SceneError::at(
+            line(l),
+            f("limits"),
+            "only revolute and prismatic joints have limits",
+        ));
+    }
+    let dim = if kind == JointKind::Revolute {
+        Dim::NONE
+    } else {
+        Dim::LENGTH
+    };
+    let lower = scalar(&l.value.lower, dim, &f("limits.lower"))?;
+    let upper = scalar(&l.value.upper, dim, &f("limits.upper"))?;
+    let start = initial.coordinate.unwrap_or(0.0);
+    if lower > start || upper < start || lower >= upper {
+        return Err(SceneError::at(
+            line(l),
+            f("limits"),
+            format!("need lower ≤ {start} ≤ upper and lower < upper (the joint starts at {start}, measured from the written configuration), got [{lower}, {upper}]"),
+        ));
+    }
+    let e = restitution(&l.value.e, &f("limits.e"))?;
+    Ok(JointLimits { lower, upper, e })
+}
+
+/// The joint of `kind` between `bodies`, placed by its world anchor and axis (at the
+/// written configuration) or by its anchors and axes in the two body frames.
+fn placed(
+    model: &Model,
+    spec: &JointSpec,
+    kind: JointKind,
+    bodies: (BodyRef, BodyRef),
+    drive: Option<Drive>,
+    f: &dyn Fn(&str) -> String,
+) -> R<Joint> {
+    let (a, b) = bodies;
     let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
     let world = spec.anchor.is_some() || spec.axis.is_some();
     let local = [&spec.anchor_a, &spec.anchor_b, &spec.axis_a, &spec.axis_b]
@@ -264,7 +301,7 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
             None => Ok(Vector3::z()),
         }
     };
-    let joint = if world || !local {
+    Ok(if world || !local {
         let anchor = given(
             &spec.anchor,
             line(&spec.name),
@@ -295,10 +332,5 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
             &poses,
             drive,
         )
-    };
-    let joint = match limits {
-        Some(l) => joint.with_limits(l),
-        None => joint,
-    };
-    Ok(BuiltJoint::Ideal(joint, initial))
+    })
 }

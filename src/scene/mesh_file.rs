@@ -56,7 +56,7 @@ fn bounded(path: &Path) -> Result<Vec<u8>, String> {
     if !meta.is_file() {
         return Err("not a regular file (a device, a FIFO or a directory)".into());
     }
-    crate::input_file::read_at_most(file, MAX_BYTES, "not a mechanism part")
+    crate::input::file::read_at_most(file, MAX_BYTES, "not a mechanism part")
 }
 
 /// A coordinate read from a file: finite, or an error naming where it is.

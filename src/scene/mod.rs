@@ -5,30 +5,29 @@
 mod bodies;
 mod build;
 mod clearance;
-pub mod document;
+pub mod closed_form;
 pub(crate) mod error;
 mod fields;
 mod forces;
-pub mod function;
 mod integrator;
 mod joints;
 mod mesh_file;
+pub mod parameter_paths;
 mod phases;
 mod probes;
 pub mod schema;
 mod shapes;
-pub mod units;
 
+pub use closed_form::FunctionScene;
 pub use error::SceneError;
-pub use function::FunctionScene;
 pub use integrator::apply_integrator;
 pub use schema::{IntegratorSpec, SceneSpec};
 
+use crate::input::units::{self, Dim};
 use crate::integrator::assembly::Assembly;
 use crate::integrator::{IntegrationParameters, Schedule, SimError, Simulation};
 use crate::mechanics::Model;
 use std::path::Path;
-use units::Dim;
 
 /// A change of the integration settings on top of the scene's own `integrator` block: a
 /// study's `fidelity` block, a rung of `converge`'s ladder. Kept with the scene, so that
@@ -93,13 +92,13 @@ impl Scene {
 
     /// Every parameter path of the scene, with its dimension and its value in the
     /// document (`None` where a default applies).
-    pub fn parameters(&self) -> Vec<document::ParameterPath> {
-        document::paths(&self.spec)
+    pub fn parameters(&self) -> Vec<parameter_paths::ParameterPath> {
+        parameter_paths::paths(&self.spec)
     }
 
     /// The dimension of the value a parameter path takes, or why the path names none.
     pub fn parameter_dim(&self, path: &str) -> Result<Dim, String> {
-        document::find(&mut self.spec.clone(), path, None)
+        parameter_paths::find(&mut self.spec.clone(), path, None)
     }
 
     /// The scene with `values` (path, SI value) written into its document, rebuilt and
@@ -115,7 +114,7 @@ impl Scene {
                     "parameter `{path}`: value must be finite, got {value}"
                 ));
             }
-            document::find(&mut spec, path, Some(value))?;
+            parameter_paths::find(&mut spec, path, Some(value))?;
         }
         build::build(spec, &self.file, self.tuning.clone()).map_err(|e| {
             let set: Vec<String> = values.iter().map(|(p, v)| format!("{p} = {v}")).collect();
@@ -177,7 +176,7 @@ impl Scene {
     }
 
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = crate::input_file::read(path).map_err(|e| SceneError {
+        let text = crate::input::file::read(path).map_err(|e| SceneError {
             file: Some(path.display().to_string()),
             line: None,
             field: String::new(),

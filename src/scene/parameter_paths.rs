@@ -12,7 +12,7 @@
 //! [`Node::visit`]; two visitors walk them: one lists every path, the other finds one.
 
 use super::schema::*;
-use super::units::{Dim, Quantity};
+use crate::input::units::{Dim, Quantity};
 use serde_saphyr::{Location, Spanned};
 
 /// A parameter path of a scene with the dimension of its value and its value in the
@@ -519,16 +519,7 @@ impl Node for PrimitiveSpec {
                 size,
                 center,
                 orientation,
-            } => v.node(
-                "box",
-                &mut With(|v: &mut dyn Visitor| {
-                    v.required_vector("size", size, L);
-                    v.vector("center", center, L, Some(&ZERO));
-                    if let Some(o) = orientation {
-                        v.node("orientation", &mut o.value);
-                    }
-                }),
-            ),
+            } => visit_box(v, size, center, orientation),
             PrimitiveSpec::Cylinder {
                 radius,
                 length,
@@ -565,16 +556,7 @@ impl Node for PrimitiveSpec {
                 file,
                 scale,
                 rounding,
-            } => v.node(
-                "convex",
-                &mut With(|v: &mut dyn Visitor| {
-                    v.table("vertices", vertices, &[L, L, L]);
-                    if file.is_some() {
-                        v.scalar("scale", scale, L);
-                    }
-                    v.scalar("rounding", rounding, L);
-                }),
-            ),
+            } => visit_convex(v, vertices, file.is_some(), scale, rounding),
             PrimitiveSpec::Mesh { scale, .. } => v.node(
                 "mesh",
                 &mut With(|v: &mut dyn Visitor| v.required("scale", scale, L)),
@@ -697,25 +679,7 @@ impl Node for JointSpec {
         v.vector("axis_a", &mut self.axis_a, Dim::NONE, None);
         v.vector("axis_b", &mut self.axis_b, Dim::NONE, None);
         if let Some(d) = &mut self.drive {
-            let d = &mut d.value;
-            v.node(
-                "drive",
-                // the drive's numbers are those of the one kind it is
-                &mut With(|v: &mut dyn Visitor| {
-                    if d.velocity.is_some() {
-                        v.scalar("velocity", &mut d.velocity, rate);
-                    }
-                    v.table(
-                        "position_table",
-                        &mut d.position_table,
-                        &[Dim::TIME, coordinate],
-                    );
-                    if d.effort.is_some() {
-                        v.scalar("effort", &mut d.effort, effort);
-                    }
-                    v.table("effort_table", &mut d.effort_table, &[Dim::TIME, effort]);
-                }),
-            );
+            visit_drive(v, &mut d.value, (coordinate, rate, effort));
         }
         if let Some(l) = &mut self.limits {
             let l = &mut l.value;
@@ -768,6 +732,69 @@ impl Node for JointSpec {
             }),
         );
     }
+}
+
+/// A joint drive's numbers, those of the one kind it is, in the joint's (coordinate, rate,
+/// effort) dimensions.
+fn visit_drive(v: &mut dyn Visitor, d: &mut DriveSpec, dims: (Dim, Dim, Dim)) {
+    let (coordinate, rate, effort) = dims;
+    v.node(
+        "drive",
+        &mut With(|v: &mut dyn Visitor| {
+            if d.velocity.is_some() {
+                v.scalar("velocity", &mut d.velocity, rate);
+            }
+            v.table(
+                "position_table",
+                &mut d.position_table,
+                &[Dim::TIME, coordinate],
+            );
+            if d.effort.is_some() {
+                v.scalar("effort", &mut d.effort, effort);
+            }
+            v.table("effort_table", &mut d.effort_table, &[Dim::TIME, effort]);
+        }),
+    );
+}
+
+/// A box's numbers: its size, centre and orientation.
+fn visit_box(
+    v: &mut dyn Visitor,
+    size: &mut Vector,
+    center: &mut Option<Vector>,
+    orientation: &mut Option<Spanned<OrientationSpec>>,
+) {
+    v.node(
+        "box",
+        &mut With(|v: &mut dyn Visitor| {
+            v.required_vector("size", size, Dim::LENGTH);
+            v.vector("center", center, Dim::LENGTH, Some(&ZERO));
+            if let Some(o) = orientation {
+                v.node("orientation", &mut o.value);
+            }
+        }),
+    );
+}
+
+/// A convex part's numbers: its vertices, its mesh file's scale, its rounding.
+fn visit_convex(
+    v: &mut dyn Visitor,
+    vertices: &mut Option<Spanned<Vec<Vec<Quantity>>>>,
+    has_file: bool,
+    scale: &mut Option<Q>,
+    rounding: &mut Option<Q>,
+) {
+    const L: Dim = Dim::LENGTH;
+    v.node(
+        "convex",
+        &mut With(|v: &mut dyn Visitor| {
+            v.table("vertices", vertices, &[L, L, L]);
+            if has_file {
+                v.scalar("scale", scale, L);
+            }
+            v.scalar("rounding", rounding, L);
+        }),
+    );
 }
 
 /// The paths of an `integrator` block's numbers (`integrator.h`, …), with the values it

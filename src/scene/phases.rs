@@ -4,7 +4,7 @@
 use super::error::{line, SceneError};
 use super::fields::{non_negative, positive, R};
 use super::schema::{Name, SceneSpec};
-use super::units::Dim;
+use crate::input::units::Dim;
 use crate::integrator::{IntegrationParameters, Refine, Schedule, Settle};
 use crate::mechanics::Model;
 use serde_saphyr::Spanned;

@@ -3,8 +3,8 @@
 
 use super::error::{line, SceneError};
 use super::fields::{body_ref, count, opt_vec3, scalar, unit_vec3};
-use super::schema::{EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
-use super::units::{Dim, DisplayUnit};
+use super::schema::{DistanceSpec, EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
+use crate::input::units::{Dim, DisplayUnit};
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::{Drive, JointKind};
 use crate::mechanics::model::Candidate;
@@ -162,6 +162,75 @@ const MEASURES: &str = "gap, contact_force, impulse, distance, angle, displaceme
 fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, Dim)> {
     let s = &m.value;
     let f = |x: &str| format!("{field}.{x}");
+    check_one_measure(m, field)?;
+    if let Some(n) = &s.gap {
+        return Ok((Measure::Gap(contact(model, n, &f("gap"))?), Dim::LENGTH));
+    }
+    if let Some(n) = &s.contact_force {
+        let ids = contact(model, n, &f("contact_force"))?;
+        return Ok((Measure::ContactForce(ids), Dim::FORCE));
+    }
+    if let Some(n) = &s.impulse {
+        let ids = contact(model, n, &f("impulse"))?;
+        return Ok((Measure::Impulse(ids), Dim::IMPULSE));
+    }
+    if let Some(d) = &s.distance {
+        return distance_measure(model, &d.value, field);
+    }
+    let frames = zero_at_frames(s, field)?;
+    if let Some(n) = s.angle.as_ref().or(s.displacement.as_ref()) {
+        return coordinate_measure(model, n, s.angle.is_none(), frames, field);
+    }
+    if let Some(p) = &s.velocity {
+        let b = body(model, &p.value.body, &f("velocity.body"))?;
+        let point = opt_vec3(&p.value.point, Dim::LENGTH, &f("velocity.point"))?;
+        let (part, angle) = part(model, s, None, field)?;
+        debug_assert!(!angle);
+        return Ok((
+            Measure::PointVelocity {
+                body: b,
+                point,
+                part,
+            },
+            Dim::VELOCITY,
+        ));
+    }
+    if let Some(n) = &s.angular_velocity {
+        let b = body(model, n, &f("angular_velocity"))?;
+        let (part, _) = part(model, s, None, field)?;
+        return Ok((
+            Measure::AngularVelocity { body: b, part },
+            Dim::ANGULAR_VELOCITY,
+        ));
+    }
+    if let Some(n) = s.reaction.as_ref().or(s.reaction_torque.as_ref()) {
+        return reaction_measure(model, s, n, field);
+    }
+    if let Some(n) = &s.drive_effort {
+        return drive_effort_measure(model, n, field);
+    }
+    let n = s.eccentricity.as_ref().expect("one measure given");
+    let JointName::Clearance(j) = joint(model, n, &f("eccentricity"))? else {
+        return Err(SceneError::at(
+            line(n),
+            f("eccentricity"),
+            format!(
+                "joint `{}` is ideal: only a revolute-clearance joint has an eccentricity",
+                n.value
+            ),
+        ));
+    };
+    let c = &model.clearance_joints[j];
+    let (part, angle) = part(model, s, Some((c.bore_body, c.bore_axis)), field)?;
+    let dim = if angle { Dim::NONE } else { Dim::LENGTH };
+    Ok((Measure::Eccentricity { joint: j, part }, dim))
+}
+
+/// Refuses a measure that names no quantity or more than one, or that gives a vector
+/// quantity's `axis`, `angle_from` or `frame` to a scalar one.
+fn check_one_measure(m: &Spanned<MeasureSpec>, field: &str) -> R<()> {
+    let s = &m.value;
+    let f = |x: &str| format!("{field}.{x}");
     let given = [
         s.gap.is_some(),
         s.contact_force.is_some(),
@@ -204,249 +273,228 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
             ));
         }
     }
-    if let Some(n) = &s.gap {
-        return Ok((Measure::Gap(contact(model, n, &f("gap"))?), Dim::LENGTH));
-    }
-    if let Some(n) = &s.contact_force {
-        let ids = contact(model, n, &f("contact_force"))?;
-        return Ok((Measure::ContactForce(ids), Dim::FORCE));
-    }
-    if let Some(n) = &s.impulse {
-        let ids = contact(model, n, &f("impulse"))?;
-        return Ok((Measure::Impulse(ids), Dim::IMPULSE));
-    }
-    if let Some(d) = &s.distance {
-        let d = &d.value;
-        let g = |x: &str| format!("{field}.distance.{x}");
-        return Ok((
-            Measure::Distance {
-                from: (
-                    body_ref(model, &d.from.body, &g("from.body"))?,
-                    opt_vec3(&d.from.point, Dim::LENGTH, &g("from.point"))?,
-                ),
-                to: (
-                    body_ref(model, &d.to.body, &g("to.body"))?,
-                    opt_vec3(&d.to.point, Dim::LENGTH, &g("to.point"))?,
-                ),
-                axis: unit_vec3(&d.axis, &g("axis"))?,
-                frame: frame(model, &d.frame, &g("frame"))?,
+    Ok(())
+}
+
+/// A `distance` between two points along an axis.
+fn distance_measure(model: &Model, d: &DistanceSpec, field: &str) -> R<(Measure, Dim)> {
+    let g = |x: &str| format!("{field}.distance.{x}");
+    Ok((
+        Measure::Distance {
+            from: (
+                body_ref(model, &d.from.body, &g("from.body"))?,
+                opt_vec3(&d.from.point, Dim::LENGTH, &g("from.point"))?,
+            ),
+            to: (
+                body_ref(model, &d.to.body, &g("to.body"))?,
+                opt_vec3(&d.to.point, Dim::LENGTH, &g("to.point"))?,
+            ),
+            axis: unit_vec3(&d.axis, &g("axis"))?,
+            frame: frame(model, &d.frame, &g("frame"))?,
+        },
+        Dim::LENGTH,
+    ))
+}
+
+/// Whether a joint `angle` counts from the joint's frames (`zero: frames`) rather than
+/// from the written configuration.
+fn zero_at_frames(s: &MeasureSpec, field: &str) -> R<bool> {
+    match s.zero.as_ref().map(|z| (z.value.as_str(), z)) {
+        None | Some(("written", _)) => Ok(false),
+        Some(("frames", _)) if s.angle.is_some() => Ok(true),
+        Some((other, z)) => Err(SceneError::at(
+            line(z),
+            format!("{field}.zero"),
+            if s.angle.is_some() {
+                format!("unknown zero `{other}` (written, frames)")
+            } else {
+                "`zero` goes with a joint `angle`".into()
             },
-            Dim::LENGTH,
-        ));
+        )),
     }
-    let frames = match s.zero.as_ref().map(|z| (z.value.as_str(), z)) {
-        None | Some(("written", _)) => false,
-        Some(("frames", _)) if s.angle.is_some() => true,
-        Some((other, z)) => {
-            return Err(SceneError::at(
-                line(z),
-                f("zero"),
-                if s.angle.is_some() {
-                    format!("unknown zero `{other}` (written, frames)")
-                } else {
-                    "`zero` goes with a joint `angle`".into()
+}
+
+/// A joint's `angle` or (`prismatic_wanted`) `displacement`, counted from its frames
+/// where `frames`.
+fn coordinate_measure(
+    model: &Model,
+    n: &Name,
+    prismatic_wanted: bool,
+    frames: bool,
+    field: &str,
+) -> R<(Measure, Dim)> {
+    let key = if prismatic_wanted {
+        "displacement"
+    } else {
+        "angle"
+    };
+    let f = |x: &str| format!("{field}.{x}");
+    match joint(model, n, &f(key))? {
+        JointName::Ideal(j) => {
+            let kind = model.joints[j].kind;
+            let prismatic = kind == JointKind::Prismatic;
+            let has = matches!(kind, JointKind::Revolute | JointKind::Prismatic);
+            if !has || prismatic != prismatic_wanted {
+                return Err(SceneError::at(
+                    line(n),
+                    f(key),
+                    format!(
+                        "joint `{}` is {} joint: {}",
+                        n.value,
+                        kind.name(),
+                        match kind {
+                            JointKind::Revolute => "measure its `angle`",
+                            JointKind::Prismatic => "measure its `displacement`",
+                            _ => "it has no coordinate",
+                        }
+                    ),
+                ));
+            }
+            let dim = if prismatic { Dim::LENGTH } else { Dim::NONE };
+            if frames {
+                let joint = &model.joints[j];
+                return Ok((
+                    Measure::FrameAngle {
+                        a: joint.a,
+                        b: joint.b,
+                        axis_a: joint.axis_a,
+                    },
+                    dim,
+                ));
+            }
+            Ok((Measure::Coordinate(j), dim))
+        }
+        JointName::Clearance(j) if !prismatic_wanted && frames => {
+            let c = &model.clearance_joints[j];
+            Ok((
+                Measure::FrameAngle {
+                    a: c.bore_body,
+                    b: c.journal_body,
+                    axis_a: c.bore_axis,
                 },
+                Dim::NONE,
             ))
         }
-    };
-    if let Some(n) = s.angle.as_ref().or(s.displacement.as_ref()) {
-        let (key, prismatic_wanted) = if s.angle.is_some() {
-            ("angle", false)
-        } else {
-            ("displacement", true)
-        };
-        return match joint(model, n, &f(key))? {
-            JointName::Ideal(j) => {
-                let kind = model.joints[j].kind;
-                let prismatic = kind == JointKind::Prismatic;
-                let has = matches!(kind, JointKind::Revolute | JointKind::Prismatic);
-                if !has || prismatic != prismatic_wanted {
-                    return Err(SceneError::at(
-                        line(n),
-                        f(key),
-                        format!(
-                            "joint `{}` is {} joint: {}",
-                            n.value,
-                            kind.name(),
-                            match kind {
-                                JointKind::Revolute => "measure its `angle`",
-                                JointKind::Prismatic => "measure its `displacement`",
-                                _ => "it has no coordinate",
-                            }
-                        ),
-                    ));
-                }
-                let dim = if prismatic { Dim::LENGTH } else { Dim::NONE };
-                if frames {
-                    let joint = &model.joints[j];
-                    return Ok((
-                        Measure::FrameAngle {
-                            a: joint.a,
-                            b: joint.b,
-                            axis_a: joint.axis_a,
-                        },
-                        dim,
-                    ));
-                }
-                Ok((Measure::Coordinate(j), dim))
-            }
-            JointName::Clearance(j) if !prismatic_wanted && frames => {
-                let c = &model.clearance_joints[j];
-                Ok((
-                    Measure::FrameAngle {
-                        a: c.bore_body,
-                        b: c.journal_body,
-                        axis_a: c.bore_axis,
-                    },
-                    Dim::NONE,
-                ))
-            }
-            JointName::Clearance(j) if !prismatic_wanted => {
-                let c = &model.clearance_joints[j];
-                let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
-                let gauge = TorsionalSpring::new(
-                    c.bore_body,
-                    c.journal_body,
-                    c.bore_axis,
-                    &poses,
-                    0.0,
-                    0.0,
-                    0.0,
-                    0.0,
-                );
-                Ok((Measure::RelativeAngle(RelativeAngle(gauge)), Dim::NONE))
-            }
-            JointName::Clearance(_) => Err(SceneError::at(
-                line(n),
-                f(key),
-                format!(
-                    "joint `{}` is a revolute-clearance joint: measure its `angle`",
-                    n.value
-                ),
-            )),
-        };
-    }
-    if let Some(p) = &s.velocity {
-        let b = body(model, &p.value.body, &f("velocity.body"))?;
-        let point = opt_vec3(&p.value.point, Dim::LENGTH, &f("velocity.point"))?;
-        let (part, angle) = part(model, s, None, field)?;
-        debug_assert!(!angle);
-        return Ok((
-            Measure::PointVelocity {
-                body: b,
-                point,
-                part,
-            },
-            Dim::VELOCITY,
-        ));
-    }
-    if let Some(n) = &s.angular_velocity {
-        let b = body(model, n, &f("angular_velocity"))?;
-        let (part, _) = part(model, s, None, field)?;
-        return Ok((
-            Measure::AngularVelocity { body: b, part },
-            Dim::ANGULAR_VELOCITY,
-        ));
-    }
-    if let Some(n) = s.reaction.as_ref().or(s.reaction_torque.as_ref()) {
-        let torque = s.reaction_torque.is_some();
-        let key = if torque {
-            "reaction_torque"
-        } else {
-            "reaction"
-        };
-        let (through, about) = match joint(model, n, &f(key))? {
-            JointName::Ideal(j) => {
-                let joint = &model.joints[j];
-                let start: usize = model.joints[..j].iter().map(|j| j.row_count()).sum();
-                let structural = joint.row_count()
-                    - usize::from(matches!(joint.drive, Some(Drive::Position(_))));
-                let stops = model
-                    .contact_candidates()
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, c)| matches!(c, Candidate::Limit { joint, .. } if *joint == j))
-                    .map(|(i, _)| i)
-                    .collect();
-                let about =
-                    matches!(joint.kind, JointKind::Revolute).then_some((joint.a, joint.axis_a));
-                (
-                    Transmission::Joint {
-                        joint: j,
-                        rows: start..start + structural,
-                        stops,
-                    },
-                    about,
-                )
-            }
-            JointName::Clearance(j) => {
-                let c = &model.clearance_joints[j];
-                let candidates = contact(model, n, &f(key))?;
-                (
-                    Transmission::Clearance {
-                        joint: j,
-                        candidates,
-                    },
-                    Some((c.bore_body, c.bore_axis)),
-                )
-            }
-        };
-        let (part, angle) = part(model, s, about, field)?;
-        let dim = match (angle, torque) {
-            (true, _) => Dim::NONE,
-            (false, true) => Dim::TORQUE,
-            (false, false) => Dim::FORCE,
-        };
-        return Ok((
-            Measure::Reaction {
-                through,
-                torque,
-                part,
-            },
-            dim,
-        ));
-    }
-    if let Some(n) = &s.drive_effort {
-        let JointName::Ideal(j) = joint(model, n, &f("drive_effort"))? else {
-            return Err(SceneError::at(
-                line(n),
-                f("drive_effort"),
-                format!(
-                    "joint `{}` is a revolute-clearance joint, which has no drive",
-                    n.value
-                ),
-            ));
-        };
-        let joint = &model.joints[j];
-        if joint.drive.is_none() {
-            return Err(SceneError::at(
-                line(n),
-                f("drive_effort"),
-                format!("joint `{}` has no drive", n.value),
-            ));
+        JointName::Clearance(j) if !prismatic_wanted => {
+            let gauge = relative_angle(model, j);
+            Ok((Measure::RelativeAngle(gauge), Dim::NONE))
         }
-        let dim = if joint.kind == JointKind::Prismatic {
-            Dim::FORCE
-        } else {
-            Dim::TORQUE
-        };
-        return Ok((Measure::DriveEffort(j), dim));
+        JointName::Clearance(_) => Err(SceneError::at(
+            line(n),
+            f(key),
+            format!(
+                "joint `{}` is a revolute-clearance joint: measure its `angle`",
+                n.value
+            ),
+        )),
     }
-    let n = s.eccentricity.as_ref().expect("one measure given");
-    let JointName::Clearance(j) = joint(model, n, &f("eccentricity"))? else {
+}
+
+/// The angle a clearance joint's journal body has turned about the bore axis relative to
+/// the bore body, from the written configuration.
+fn relative_angle(model: &Model, j: usize) -> RelativeAngle {
+    let c = &model.clearance_joints[j];
+    let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
+    RelativeAngle(TorsionalSpring::new(
+        c.bore_body,
+        c.journal_body,
+        c.bore_axis,
+        &poses,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    ))
+}
+
+/// The `reaction` (or `reaction_torque`) a joint transmits.
+fn reaction_measure(model: &Model, s: &MeasureSpec, n: &Name, field: &str) -> R<(Measure, Dim)> {
+    let f = |x: &str| format!("{field}.{x}");
+    let torque = s.reaction_torque.is_some();
+    let key = if torque {
+        "reaction_torque"
+    } else {
+        "reaction"
+    };
+    let (through, about) = match joint(model, n, &f(key))? {
+        JointName::Ideal(j) => {
+            let joint = &model.joints[j];
+            let start: usize = model.joints[..j].iter().map(|j| j.row_count()).sum();
+            let structural =
+                joint.row_count() - usize::from(matches!(joint.drive, Some(Drive::Position(_))));
+            let stops = model
+                .contact_candidates()
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| matches!(c, Candidate::Limit { joint, .. } if *joint == j))
+                .map(|(i, _)| i)
+                .collect();
+            let about =
+                matches!(joint.kind, JointKind::Revolute).then_some((joint.a, joint.axis_a));
+            (
+                Transmission::Joint {
+                    joint: j,
+                    rows: start..start + structural,
+                    stops,
+                },
+                about,
+            )
+        }
+        JointName::Clearance(j) => {
+            let c = &model.clearance_joints[j];
+            let candidates = contact(model, n, &f(key))?;
+            (
+                Transmission::Clearance {
+                    joint: j,
+                    candidates,
+                },
+                Some((c.bore_body, c.bore_axis)),
+            )
+        }
+    };
+    let (part, angle) = part(model, s, about, field)?;
+    let dim = match (angle, torque) {
+        (true, _) => Dim::NONE,
+        (false, true) => Dim::TORQUE,
+        (false, false) => Dim::FORCE,
+    };
+    Ok((
+        Measure::Reaction {
+            through,
+            torque,
+            part,
+        },
+        dim,
+    ))
+}
+
+/// The effort of a joint's drive.
+fn drive_effort_measure(model: &Model, n: &Name, field: &str) -> R<(Measure, Dim)> {
+    let f = |x: &str| format!("{field}.{x}");
+    let JointName::Ideal(j) = joint(model, n, &f("drive_effort"))? else {
         return Err(SceneError::at(
             line(n),
-            f("eccentricity"),
+            f("drive_effort"),
             format!(
-                "joint `{}` is ideal: only a revolute-clearance joint has an eccentricity",
+                "joint `{}` is a revolute-clearance joint, which has no drive",
                 n.value
             ),
         ));
     };
-    let c = &model.clearance_joints[j];
-    let (part, angle) = part(model, s, Some((c.bore_body, c.bore_axis)), field)?;
-    let dim = if angle { Dim::NONE } else { Dim::LENGTH };
-    Ok((Measure::Eccentricity { joint: j, part }, dim))
+    let joint = &model.joints[j];
+    if joint.drive.is_none() {
+        return Err(SceneError::at(
+            line(n),
+            f("drive_effort"),
+            format!("joint `{}` has no drive", n.value),
+        ));
+    }
+    let dim = if joint.kind == JointKind::Prismatic {
+        Dim::FORCE
+    } else {
+        Dim::TORQUE
+    };
+    Ok((Measure::DriveEffort(j), dim))
 }
 
 /// Why a reduction of a measure depends on the step size, if it does: in a rigid model an
@@ -570,7 +618,7 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
     let mut out: Vec<Probe> = Vec::new();
     for (i, p) in specs.iter().enumerate() {
         let f = |s: &str| format!("probes[{i}].{s}");
-        if let Some(why) = crate::study::store::column_name_error(&p.name.value) {
+        if let Some(why) = crate::input::columns::column_name_error(&p.name.value) {
             return Err(SceneError::at(line(&p.name), f("name"), why));
         }
         if out.iter().any(|q| q.name == p.name.value) {
@@ -595,68 +643,11 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
             }
             (None, Some(m)) => {
                 let (measure, dim) = measure(model, m, &f("measure"))?;
-                let reduce = match p.reduce.as_ref().map(|r| (r.value.as_str(), r)) {
-                    None | Some(("at", _)) => Reduce::At,
-                    Some(("max", _)) => Reduce::Max,
-                    Some(("min", _)) => Reduce::Min,
-                    Some(("mean", _)) => Reduce::Mean,
-                    Some(("sum", _)) => Reduce::Sum,
-                    Some((other, r)) => {
-                        return Err(SceneError::at(
-                            line(r),
-                            f("reduce"),
-                            format!("unknown reduction `{other}` (at, max, min, mean, sum)"),
-                        ))
-                    }
-                };
-                // an impulse is a step's: summed over a window it is the momentum exchanged;
-                // its mean over the steps would shrink with h
-                let impulse = matches!(measure, Measure::Impulse(_));
-                if let Some(r) = &p.reduce {
-                    if reduce == Reduce::Sum && !impulse {
-                        return Err(SceneError::at(
-                            line(r),
-                            f("reduce"),
-                            "`sum` adds up impulses: it goes with `impulse`",
-                        ));
-                    }
-                    if reduce == Reduce::Mean && impulse {
-                        return Err(SceneError::at(
-                            line(r),
-                            f("reduce"),
-                            "the mean of a step's impulse shrinks with the step: use `sum` (the impulse over the window) or the window mean of `contact_force`",
-                        ));
-                    }
+                let (kind, reduce) = value_probe(specs, p, measure, &f)?;
+                if let ProbeKind::Value { measure, .. } = &kind {
+                    caution = self::caution(model, measure, reduce, &p.name.value);
                 }
-                let opt = |t: &Option<Spanned<TimeSpec>>, name: &str| {
-                    t.as_ref().map(|t| time_ref(specs, t, &f(name))).transpose()
-                };
-                let (at, from, to) = (opt(&p.at, "at")?, opt(&p.from, "from")?, opt(&p.to, "to")?);
-                if reduce == Reduce::At && (from.is_some() || to.is_some()) {
-                    return Err(SceneError::at(
-                        line(&p.name),
-                        f("reduce"),
-                        "`from`/`to` need a reduction over the window (max, min, mean, sum)",
-                    ));
-                }
-                caution = self::caution(model, &measure, reduce, &p.name.value);
-                if reduce != Reduce::At && at.is_some() {
-                    return Err(SceneError::at(
-                        line(&p.name),
-                        f("at"),
-                        "`at` goes with `reduce: at`",
-                    ));
-                }
-                (
-                    ProbeKind::Value {
-                        measure,
-                        reduce,
-                        at,
-                        from,
-                        to,
-                    },
-                    dim,
-                )
+                (kind, dim)
             }
             _ => {
                 return Err(SceneError::at(
@@ -682,4 +673,73 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
         });
     }
     Ok(out)
+}
+
+/// A probe that reduces `measure` over time: its reduction and its window (`at`, or
+/// `from` and `to`, times that may name other probes of `specs`).
+fn value_probe(
+    specs: &[ProbeSpec],
+    p: &ProbeSpec,
+    measure: Measure,
+    f: &dyn Fn(&str) -> String,
+) -> R<(ProbeKind, Reduce)> {
+    let reduce = match p.reduce.as_ref().map(|r| (r.value.as_str(), r)) {
+        None | Some(("at", _)) => Reduce::At,
+        Some(("max", _)) => Reduce::Max,
+        Some(("min", _)) => Reduce::Min,
+        Some(("mean", _)) => Reduce::Mean,
+        Some(("sum", _)) => Reduce::Sum,
+        Some((other, r)) => {
+            return Err(SceneError::at(
+                line(r),
+                f("reduce"),
+                format!("unknown reduction `{other}` (at, max, min, mean, sum)"),
+            ))
+        }
+    };
+    // an impulse is a step's: summed over a window it is the momentum exchanged; its mean
+    // over the steps would shrink with h
+    let impulse = matches!(measure, Measure::Impulse(_));
+    if let Some(r) = &p.reduce {
+        if reduce == Reduce::Sum && !impulse {
+            return Err(SceneError::at(
+                line(r),
+                f("reduce"),
+                "`sum` adds up impulses: it goes with `impulse`",
+            ));
+        }
+        if reduce == Reduce::Mean && impulse {
+            return Err(SceneError::at(
+                line(r),
+                f("reduce"),
+                "the mean of a step's impulse shrinks with the step: use `sum` (the impulse over the window) or the window mean of `contact_force`",
+            ));
+        }
+    }
+    let opt = |t: &Option<Spanned<TimeSpec>>, name: &str| {
+        t.as_ref().map(|t| time_ref(specs, t, &f(name))).transpose()
+    };
+    let (at, from, to) = (opt(&p.at, "at")?, opt(&p.from, "from")?, opt(&p.to, "to")?);
+    if reduce == Reduce::At && (from.is_some() || to.is_some()) {
+        return Err(SceneError::at(
+            line(&p.name),
+            f("reduce"),
+            "`from`/`to` need a reduction over the window (max, min, mean, sum)",
+        ));
+    }
+    if reduce != Reduce::At && at.is_some() {
+        return Err(SceneError::at(
+            line(&p.name),
+            f("at"),
+            "`at` goes with `reduce: at`",
+        ));
+    }
+    let kind = ProbeKind::Value {
+        measure,
+        reduce,
+        at,
+        from,
+        to,
+    };
+    Ok((kind, reduce))
 }

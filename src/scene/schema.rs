@@ -1,7 +1,7 @@
 //! The scene YAML schema, as serde structs. Every scalar the user writes is kept with its
 //! source location (`Spanned`) so that validation errors can name the line.
 
-use super::units::Quantity;
+use crate::input::units::Quantity;
 use serde::Deserialize;
 use serde_saphyr::Spanned;
 
@@ -488,7 +488,7 @@ impl<'de> Deserialize<'de> for TimeRef {
                 self.visit_f64(v as f64)
             }
             fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TimeRef, E> {
-                Ok(match super::units::parse_quantity(v) {
+                Ok(match crate::input::units::parse_quantity(v) {
                     Ok(q) => TimeRef::Time(q),
                     Err(_) => TimeRef::Probe(v.trim().to_string()),
                 })

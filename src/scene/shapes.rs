@@ -7,10 +7,10 @@ use super::fields::{
     values, vec3, R,
 };
 use super::schema::{ContactSpec, Name, PieceSpec, PrimitiveSpec, ProfileSpec, Vector, Q};
-use super::units::Dim;
+use crate::input::units::{Dim, Quantity};
 use crate::mechanics::contact::convex::ConvexPart;
 use crate::mechanics::contact::mesh::{self, MeshPart};
-use crate::mechanics::contact::profile::{Piece as ProfilePiece, Profile, Solid};
+use crate::mechanics::contact::profile::{Outline, Piece as ProfilePiece, Solid};
 use crate::mechanics::{ContactPair, Model, Primitive};
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use serde_saphyr::Spanned;
@@ -69,23 +69,13 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
             size,
             center,
             orientation: o,
-        } => {
-            let s = vec3(size, Dim::LENGTH, &fl("box.size"))?;
-            if s.iter().any(|&x| x <= 0.0) {
-                return Err(SceneError::at(
-                    line(size),
-                    fl("box.size"),
-                    "must be positive",
-                ));
-            }
-            Primitive::Box {
-                half_extents: s * 0.5,
-                center: opt_vec3(center, Dim::LENGTH, &fl("box.center"))?,
-                rotation: o.as_ref().map_or(Ok(UnitQuaternion::identity()), |o| {
-                    orientation(o, &fl("box.orientation"))
-                })?,
-            }
-        }
+        } => Primitive::Box {
+            half_extents: positive_size(size, &fl("box.size"))? * 0.5,
+            center: opt_vec3(center, Dim::LENGTH, &fl("box.center"))?,
+            rotation: o.as_ref().map_or(Ok(UnitQuaternion::identity()), |o| {
+                orientation(o, &fl("box.orientation"))
+            })?,
+        },
         PrimitiveSpec::Cylinder {
             radius,
             length,
@@ -127,56 +117,7 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
             file: mesh,
             scale,
             rounding,
-        } => {
-            let points = match (vertices, mesh) {
-                (Some(t), None) => t
-                    .value
-                    .iter()
-                    .enumerate()
-                    .map(|(r, row)| {
-                        if row.len() != 3 {
-                            return Err(SceneError::at(
-                                line(t),
-                                fl(&format!("convex.vertices[{r}]")),
-                                format!("a vertex needs 3 coordinates, got {}", row.len()),
-                            ));
-                        }
-                        let c = |k: usize| {
-                            row[k].value(Dim::LENGTH).map_err(|m| {
-                                SceneError::at(line(t), fl(&format!("convex.vertices[{r}]")), m)
-                            })
-                        };
-                        Ok(Vector3::new(c(0)?, c(1)?, c(2)?))
-                    })
-                    .collect::<R<Vec<_>>>()?,
-                (None, Some(name)) => {
-                    let (vertices, triangles) = read_mesh(name, scale, file, &fl("convex"))?;
-                    mesh::check(&vertices, &triangles)
-                        .and_then(|()| mesh::check_convex(&vertices, &triangles))
-                        .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
-                    vertices
-                }
-                _ => {
-                    return Err(SceneError::at(
-                        line(p),
-                        fl("convex"),
-                        "give `vertices` or a mesh `file`, one of the two",
-                    ))
-                }
-            };
-            let at = vertices
-                .as_ref()
-                .and_then(line)
-                .or(mesh.as_ref().and_then(line));
-            let rounding = rounding.as_ref().map_or(Ok(0.0), |q| {
-                non_negative(q, Dim::LENGTH, &fl("convex.rounding"))
-            })?;
-            Primitive::Convex(Box::new(
-                ConvexPart::new(&points, true)
-                    .map_err(|m| SceneError::at(at, fl("convex"), m))?
-                    .rounded(rounding),
-            ))
-        }
+        } => convex(p, vertices, mesh, scale, rounding, file, field)?,
         PrimitiveSpec::Mesh { file: name, scale } => {
             let (vertices, triangles) = read_mesh(name, &Some(scale.clone()), file, &fl("mesh"))?;
             Primitive::Mesh(Box::new(
@@ -188,6 +129,68 @@ fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive
             Primitive::Profile(Box::new(profile(spec, line(p), &fl("profile"))?))
         }
     })
+}
+
+/// A convex part: the hull of its `vertices`, or of the vertices of its mesh `file` (which
+/// must be a closed convex surface), with its edges and corners rounded by `rounding`.
+fn convex(
+    p: &Spanned<PrimitiveSpec>,
+    vertices: &Option<Spanned<Vec<Vec<Quantity>>>>,
+    mesh: &Option<Name>,
+    scale: &Option<Q>,
+    rounding: &Option<Q>,
+    file: &str,
+    field: &str,
+) -> R<Primitive> {
+    let fl = |s: &str| format!("{field}.{s}");
+    let points = match (vertices, mesh) {
+        (Some(t), None) => t
+            .value
+            .iter()
+            .enumerate()
+            .map(|(r, row)| {
+                if row.len() != 3 {
+                    return Err(SceneError::at(
+                        line(t),
+                        fl(&format!("convex.vertices[{r}]")),
+                        format!("a vertex needs 3 coordinates, got {}", row.len()),
+                    ));
+                }
+                let c = |k: usize| {
+                    row[k].value(Dim::LENGTH).map_err(|m| {
+                        SceneError::at(line(t), fl(&format!("convex.vertices[{r}]")), m)
+                    })
+                };
+                Ok(Vector3::new(c(0)?, c(1)?, c(2)?))
+            })
+            .collect::<R<Vec<_>>>()?,
+        (None, Some(name)) => {
+            let (vertices, triangles) = read_mesh(name, scale, file, &fl("convex"))?;
+            mesh::check(&vertices, &triangles)
+                .and_then(|()| mesh::check_convex(&vertices, &triangles))
+                .map_err(|m| SceneError::at(line(name), fl("convex.file"), m))?;
+            vertices
+        }
+        _ => {
+            return Err(SceneError::at(
+                line(p),
+                fl("convex"),
+                "give `vertices` or a mesh `file`, one of the two",
+            ))
+        }
+    };
+    let at = vertices
+        .as_ref()
+        .and_then(line)
+        .or(mesh.as_ref().and_then(line));
+    let rounding = rounding.as_ref().map_or(Ok(0.0), |q| {
+        non_negative(q, Dim::LENGTH, &fl("convex.rounding"))
+    })?;
+    Ok(Primitive::Convex(Box::new(
+        ConvexPart::new(&points, true)
+            .map_err(|m| SceneError::at(at, fl("convex"), m))?
+            .rounded(rounding),
+    )))
 }
 
 /// The mesh in file `name` (relative to the scene file `scene`), scaled to metres.
@@ -213,31 +216,9 @@ fn read_mesh(
         .map_err(|m| SceneError::at(line(name), format!("{field}.file"), m))
 }
 
-/// A point of a profile's plane.
-fn point2(v: &Vector, field: &str) -> R<Vector2<f64>> {
-    let x = values(v, Dim::LENGTH, field, 2)?;
-    Ok(Vector2::new(x[0], x[1]))
-}
-
-fn profile(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<Profile> {
+/// A profile's path: its pieces and its first point (a lone circle's is on its rim).
+fn path(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<(Vec<ProfilePiece>, Vector2<f64>)> {
     let fl = |s: &str| format!("{field}.{s}");
-    let axes = match p.plane.as_ref().map(|n| n.value.as_str()) {
-        None | Some("xy") => [Vector3::x(), Vector3::y(), Vector3::z()],
-        Some("yz") => [Vector3::y(), Vector3::z(), Vector3::x()],
-        Some("xz") => [Vector3::x(), Vector3::z(), -Vector3::y()],
-        Some(other) => {
-            return Err(SceneError::at(
-                p.plane.as_ref().and_then(line),
-                fl("plane"),
-                format!("unknown plane `{other}` (expected xy, yz or xz)"),
-            ))
-        }
-    };
-    let offset = p
-        .offset
-        .as_ref()
-        .map_or(Ok(0.0), |q| scalar(q, Dim::LENGTH, &fl("offset")))?;
-    let thickness = positive(&p.thickness, Dim::LENGTH, &fl("thickness"))?;
     let circle = |i: usize| matches!(p.path.value[i].value, PieceSpec::Circle { .. });
     let start = match (&p.start, p.path.value.len()) {
         (None, 1) if circle(0) => None,
@@ -306,6 +287,44 @@ fn profile(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<Profile> {
             },
         });
     }
+    Ok((pieces, start_point))
+}
+
+/// A box's size, each side positive.
+fn positive_size(size: &Vector, field: &str) -> R<Vector3<f64>> {
+    let s = vec3(size, Dim::LENGTH, field)?;
+    if s.iter().any(|&x| x <= 0.0) {
+        return Err(SceneError::at(line(size), field, "must be positive"));
+    }
+    Ok(s)
+}
+
+/// A point of a profile's plane.
+fn point2(v: &Vector, field: &str) -> R<Vector2<f64>> {
+    let x = values(v, Dim::LENGTH, field, 2)?;
+    Ok(Vector2::new(x[0], x[1]))
+}
+
+fn profile(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<Outline> {
+    let fl = |s: &str| format!("{field}.{s}");
+    let axes = match p.plane.as_ref().map(|n| n.value.as_str()) {
+        None | Some("xy") => [Vector3::x(), Vector3::y(), Vector3::z()],
+        Some("yz") => [Vector3::y(), Vector3::z(), Vector3::x()],
+        Some("xz") => [Vector3::x(), Vector3::z(), -Vector3::y()],
+        Some(other) => {
+            return Err(SceneError::at(
+                p.plane.as_ref().and_then(line),
+                fl("plane"),
+                format!("unknown plane `{other}` (expected xy, yz or xz)"),
+            ))
+        }
+    };
+    let offset = p
+        .offset
+        .as_ref()
+        .map_or(Ok(0.0), |q| scalar(q, Dim::LENGTH, &fl("offset")))?;
+    let thickness = positive(&p.thickness, Dim::LENGTH, &fl("thickness"))?;
+    let (pieces, start_point) = path(p, at, field)?;
     let solid = match p.solid.as_ref().map(|n| n.value.as_str()) {
         None | Some("inside") => Solid::Inside,
         Some("outside") => Solid::Outside,
@@ -319,7 +338,7 @@ fn profile(p: &ProfileSpec, at: Option<u64>, field: &str) -> R<Profile> {
             ))
         }
     };
-    Profile::new(
+    Outline::new(
         axes[2] * offset,
         axes,
         thickness,

@@ -1,17 +1,21 @@
-//! `mc-study simulate`: one run of a scene, with its diagnostics, its probes, and on request
-//! its trajectory (CSV or Parquet) and a drawing of the mechanism at chosen times. The run
-//! and what it measured make a [`SimulateReport`], which prints as the command's output.
+//! One run of a scene (what `mc-study simulate` does), with its diagnostics, its probes,
+//! and on request its trajectory (CSV or Parquet, `trajectory`) and a drawing of the
+//! mechanism at chosen times (`drawing`). The run and what it measured make a
+//! [`SimulateReport`], which prints as the command's output.
 
-use crate::drawing::{self, Snapshot, View};
+pub mod drawing;
+pub mod trajectory;
+
+use crate::input::units::Dim;
 use crate::integrator::{RunStats, Scheme, Simulation};
-use crate::probe_run::{run_probes, Branch};
-use crate::scene::units::Dim;
+use crate::probe::run::{run_probes, Branch};
 use crate::scene::Scene;
-use crate::trajectory::Trajectory;
 use anyhow::{Context, Result};
+use drawing::{Snapshot, View};
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Instant;
+use trajectory::Trajectory;
 
 /// What to draw: an SVG file, its snapshot times (s, ascending) and the view.
 #[derive(Clone, Debug)]
@@ -34,7 +38,7 @@ impl DrawingRequest {
             .ok_or_else(|| format!("--view must be xy, xz or yz, got `{view}`"))?;
         let mut times = Vec::new();
         for s in snapshots {
-            let q = crate::scene::units::parse_quantity(s)
+            let q = crate::input::units::parse_quantity(s)
                 .map_err(|e| format!("--snapshots {s}: {e}"))?;
             if q.dim.is_some_and(|d| d != Dim::TIME) || !(0.0..=duration).contains(&q.si) {
                 return Err(format!(

@@ -16,4 +16,4 @@ pub mod ordering;
 pub use fc3d::{natural_map_error, project_on_cone, Fc3d, SolverStatus};
 pub use lu::Lu;
 pub use mlcp::{solve_mixed_pgs, EqualitySolver};
-pub use nsgs::{solve_fc3d, NsgsOptions};
+pub use nsgs::{solve_fc3d, NsgsOptions, SolverStorage};

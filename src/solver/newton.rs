@@ -5,9 +5,9 @@
 
 use super::fc3d::{natural_map_error, natural_map_error_at, Fc3d};
 use super::lu::Lu;
-use super::ordering::BlockPattern;
+use super::ordering::{BlockPattern, MinimumDegree};
 use crate::math::blocks::{block3, set_block3, set_vector3, vector3};
-use crate::math::{buffer, kept};
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
 
 /// Φ of one contact and its derivatives A = ∂Φ/∂r, B = ∂Φ/∂u.
@@ -91,14 +91,20 @@ fn phi_and_jacobian(
 /// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are
 /// taken in a fill-reducing order (`BlockPattern::minimum_degree_into`), which keeps the LU of
 /// the Jacobian sparse: on the circuit breaker it halves the factorisation's work.
+/// `storage` is the method's, reused from one call to the next.
 pub fn global_newton(
     p: &Fc3d,
     pattern: &BlockPattern,
     r: &mut DVector<f64>,
     tolerance: f64,
     max_iterations: usize,
+    storage: &mut NewtonStorage,
 ) -> Option<usize> {
-    let mut kept = kept::take(&REORDERED);
+    let NewtonStorage {
+        reordered,
+        iterates,
+        ordering,
+    } = storage;
     let Reordered {
         order,
         w,
@@ -106,10 +112,10 @@ pub fn global_newton(
         mu,
         r: reordered,
         pattern: permuted,
-    } = &mut *kept;
-    pattern.minimum_degree_into(order);
+    } = reordered;
+    pattern.minimum_degree_into(order, ordering);
     if order.iter().enumerate().all(|(k, &a)| k == a) {
-        return newton_in_order(p, pattern, r, tolerance, max_iterations);
+        return newton_in_order(p, pattern, r, tolerance, max_iterations, iterates);
     }
     // entry k of the reordered problem is entry `index(k)` of the original
     let index = |k: usize| 3 * order[k / 3] + k % 3;
@@ -133,15 +139,30 @@ pub fn global_newton(
     mu.extend(order.iter().map(|&a| p.mu[a]));
     pattern.permuted_into(order, permuted);
     let problem = Fc3d { w, q, mu };
-    let outcome = newton_in_order(&problem, permuted, reordered, tolerance, max_iterations);
+    let outcome = newton_in_order(
+        &problem,
+        permuted,
+        reordered,
+        tolerance,
+        max_iterations,
+        iterates,
+    );
     for (k, x) in reordered.iter().enumerate() {
         r[index(k)] = *x;
     }
     outcome
 }
 
-/// The contacts' fill-reducing order and the problem taken in it, kept from one solve to
-/// the next on each thread (`kept`). Every entry is written before it is read.
+/// The global Newton method's storage, reused from one solve to the next: every entry is
+/// written before it is read.
+#[derive(Default)]
+pub struct NewtonStorage {
+    reordered: Reordered,
+    iterates: Iterates,
+    ordering: MinimumDegree,
+}
+
+/// The contacts' fill-reducing order and the problem taken in it.
 #[derive(Default)]
 struct Reordered {
     order: Vec<usize>,
@@ -152,10 +173,6 @@ struct Reordered {
     pattern: BlockPattern,
 }
 
-thread_local! {
-    static REORDERED: kept::Slot<Reordered> = const { kept::Slot::new(None) };
-}
-
 /// `global_newton` on the contacts in their given order.
 fn newton_in_order(
     p: &Fc3d,
@@ -163,8 +180,8 @@ fn newton_in_order(
     r: &mut DVector<f64>,
     tolerance: f64,
     max_iterations: usize,
+    iterates: &mut Iterates,
 ) -> Option<usize> {
-    let mut kept = kept::take(&ITERATES);
     let Iterates {
         rho,
         u,
@@ -175,7 +192,7 @@ fn newton_in_order(
         lu,
         dr,
         trial,
-    } = &mut *kept;
+    } = iterates;
     let n = p.mu.len();
     rho.clear();
     rho.extend((0..n).map(|a| {
@@ -225,8 +242,7 @@ fn newton_in_order(
     (natural_map_error_at(p, r, u) <= tolerance).then_some(max_iterations)
 }
 
-/// The Newton method's storage, kept from one solve to the next on each thread (`kept`).
-/// Every entry is written before it is read.
+/// The Newton iterations' vectors and matrices.
 #[derive(Default)]
 struct Iterates {
     /// Each contact's (ρ_N, ρ_T).
@@ -243,10 +259,6 @@ struct Iterates {
     /// The Newton step and the trial impulses.
     dr: DVector<f64>,
     trial: DVector<f64>,
-}
-
-thread_local! {
-    static ITERATES: kept::Slot<Iterates> = const { kept::Slot::new(None) };
 }
 
 /// max |J_ij| over the blocks of `pattern`, where all of J's nonzero entries lie: J's
@@ -274,8 +286,8 @@ fn pattern_amax(j: &DMatrix<f64>, pattern: &BlockPattern) -> f64 {
 /// directions of W that both miss. η adapts: a small η moves fast but its subproblem is
 /// nearly as singular as the original, so η shrinks threefold after every solved
 /// subproblem and grows tenfold when the inner Newton fails (from η = mean diag W it starts
-/// again at 1e-4 from the best iterate). A fixed η either failed its subproblems or crept
-/// (0.1 % a step at 0.1 mean diag W). Returns the inner Newton iterations used if the
+/// again at 1e-4 from the best iterate); a fixed η would either fail its subproblems or
+/// creep. Returns the inner Newton iterations used if the
 /// *original* problem reached `tolerance`; `r` holds the best iterate either way. `pattern`
 /// is W's, which the shift keeps.
 pub fn proximal_newton(
@@ -284,6 +296,7 @@ pub fn proximal_newton(
     r: &mut DVector<f64>,
     tolerance: f64,
     max_outer: usize,
+    storage: &mut NewtonStorage,
 ) -> Option<usize> {
     let mean_diag = p.w.diagonal().mean().max(f64::MIN_POSITIVE);
     let (mut rel, mut total) = (1e-4, 0);
@@ -300,7 +313,8 @@ pub fn proximal_newton(
             mu: p.mu,
         };
         let mut trial = current.clone();
-        let Some(it) = global_newton(&sub, pattern, &mut trial, 0.01 * tolerance, 50) else {
+        let Some(it) = global_newton(&sub, pattern, &mut trial, 0.01 * tolerance, 50, storage)
+        else {
             // even a large shift fails from here: start again from the best iterate
             if rel >= 1.0 {
                 rel = 1e-4;
@@ -329,11 +343,11 @@ pub fn proximal_newton(
 mod tests {
     use super::*;
 
-    /// A solve reads nothing that an earlier one left in the thread's storage: a chain of
-    /// three frictional contacts (the first and the last uncoupled, so that the Jacobian
-    /// has zero blocks) solves to the same bits, in as many iterations, on a fresh thread
-    /// and on one whose storage holds NaN of the same size; and so does the chain with its
-    /// middle contact numbered first, which the solve takes in another order.
+    /// A solve reads nothing that an earlier one left in its storage: a chain of three
+    /// frictional contacts (the first and the last uncoupled, so that the Jacobian has zero
+    /// blocks) solves to the same bits, in as many iterations, in fresh storage and in
+    /// storage that a larger problem, taken in another order, used before; and so does the
+    /// chain with its middle contact numbered first, which the solve takes in another order.
     #[test]
     fn a_solve_reads_nothing_an_earlier_one_left() {
         let chain = |middle: usize| {
@@ -346,49 +360,37 @@ mod tests {
         };
         let q = DVector::from_vec(vec![-1.0, 0.8, 0.1, -0.5, 0.0, 0.05, -0.7, -0.2, 0.3]);
         let mu = [0.3, 0.5, 0.4];
-        let solve = |w: &DMatrix<f64>, poison: bool| {
-            let (w, q) = (w.clone(), q.clone());
-            std::thread::spawn(move || {
-                if poison {
-                    let nan = DVector::from_element(9, f64::NAN);
-                    ITERATES.set(Some(Box::new(Iterates {
-                        rho: vec![(f64::NAN, f64::NAN); 3],
-                        u: nan.clone(),
-                        u_trial: nan.clone(),
-                        phi: nan.clone(),
-                        phi_trial: nan.clone(),
-                        jac: DMatrix::from_element(9, 9, f64::NAN),
-                        lu: Lu::new(DMatrix::from_element(9, 9, f64::NAN)),
-                        dr: nan.clone(),
-                        trial: nan.clone(),
-                    })));
-                    REORDERED.set(Some(Box::new(Reordered {
-                        order: vec![2, 2, 2, 2],
-                        w: DMatrix::from_element(12, 12, f64::NAN),
-                        q: nan.clone(),
-                        mu: vec![f64::NAN; 4],
-                        r: nan,
-                        pattern: BlockPattern::of_pairs(4, [(0, 3)]),
-                    })));
-                }
-                let p = Fc3d {
-                    w: &w,
-                    q: &q,
-                    mu: &mu,
-                };
-                let mut r = DVector::zeros(9);
-                let it = global_newton(&p, &BlockPattern::of(&w), &mut r, 1e-12, 50);
-                (it, natural_map_error(&p, &r), r)
-            })
-            .join()
-            .unwrap()
+        let solve = |w: &DMatrix<f64>, storage: &mut NewtonStorage| {
+            let p = Fc3d { w, q: &q, mu: &mu };
+            let mut r = DVector::zeros(9);
+            let it = global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 50, storage);
+            (it, natural_map_error(&p, &r), r)
         };
+        // storage used by a problem of four contacts whose hub, the first, goes last
+        let mut used = NewtonStorage::default();
+        let hub = DMatrix::from_fn(12, 12, |i, j| {
+            let (a, b) = (i / 3, j / 3);
+            match (i == j, a == b || a == 0 || b == 0) {
+                (true, _) => 3.0,
+                (false, true) => 0.2,
+                (false, false) => 0.0,
+            }
+        });
+        let q4 = DVector::from_fn(12, |i, _| if i % 3 == 0 { -1.0 } else { 0.3 });
+        let p4 = Fc3d {
+            w: &hub,
+            q: &q4,
+            mu: &[0.5; 4],
+        };
+        let mut r4 = DVector::zeros(12);
+        let pattern = BlockPattern::of(&hub);
+        assert!(global_newton(&p4, &pattern, &mut r4, 1e-12, 50, &mut used).is_some());
         for middle in [1, 0] {
             let w = chain(middle);
             let mut order = Vec::new();
-            BlockPattern::of(&w).minimum_degree_into(&mut order);
+            BlockPattern::of(&w).minimum_degree_into(&mut order, &mut MinimumDegree::default());
             assert_eq!(order, [[1, 0, 2], [0, 1, 2]][middle], "the order taken");
-            let (it, error, r) = solve(&w, false);
+            let (it, error, r) = solve(&w, &mut NewtonStorage::default());
             assert!(it.is_some() && error <= 1e-12, "{it:?} {error}");
             if middle == 1 {
                 // the first contact slides: its friction is on the cone's boundary
@@ -397,7 +399,7 @@ mod tests {
                     "{r}"
                 );
             }
-            let (it2, _, r2) = solve(&w, true);
+            let (it2, _, r2) = solve(&w, &mut used);
             assert_eq!(it, it2);
             assert_eq!(r, r2);
         }

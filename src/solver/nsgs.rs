@@ -7,19 +7,18 @@ use super::fc3d::{
     contact_rho, local_natural_map, natural_map_error, natural_map_error_at, project_on_cone, Fc3d,
     SolverStatus,
 };
-use super::newton::{global_newton, proximal_newton};
+use super::newton::{global_newton, proximal_newton, NewtonStorage};
 use super::ordering::{block_is_nonzero, BlockPattern};
 use crate::math::blocks::{block3, set_vector3, vector3};
-use crate::math::{buffer, kept};
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// After this many sweeps (and again after five times as many) an unconverged NSGS tries
 /// the global Newton method; it tries it earlier, once, when the rate of the last sweep
 /// says the sweeps would not converge by then. On the circuit breaker two fifths of the
 /// solves do not converge by sweeping (each journal's two pressed rings share its load in
-/// a nearly redundant direction) and one or two Newton iterations finish them: switching
-/// at 8 sweeps instead of 20 saved 4 % of a sample's instructions, and switching as soon
-/// as the rate shows the crawl 6 % more.
+/// a nearly redundant direction) and one or two Newton iterations finish them, so an early
+/// switch saves the sweeps that would crawl.
 const GLOBAL_NEWTON_AFTER: usize = 8;
 
 /// Outer proximal-point iterations of the last resort. Jammed clearance joints at μ = 1
@@ -52,13 +51,16 @@ impl Default for NsgsOptions {
     }
 }
 
-/// Solves FC3D by NSGS. `r` holds the warm start on entry and the impulses on exit.
-pub fn solve_fc3d(p: &Fc3d, r: &mut DVector<f64>, opts: &NsgsOptions) -> SolverStatus {
-    solve_in(p, r, opts, &mut kept::take(&SWEEPS))
+/// The contact solver's storage, which a caller that solves one problem after another
+/// (a simulation, step by step) keeps and hands to every solve: every entry is written
+/// before it is read, so a solve's result does not depend on what an earlier one left.
+#[derive(Default)]
+pub struct SolverStorage {
+    sweeps: Sweeps,
+    newton: NewtonStorage,
 }
 
-/// The sweeps' storage, kept from one solve to the next on each thread (`kept`). Every
-/// entry is written before it is read.
+/// The sweeps' storage.
 #[derive(Default)]
 struct Sweeps {
     /// Each contact's block of W and its inverse (for the sticking test).
@@ -71,17 +73,15 @@ struct Sweeps {
     trial: DVector<f64>,
 }
 
-thread_local! {
-    static SWEEPS: kept::Slot<Sweeps> = const { kept::Slot::new(None) };
-}
-
-/// `solve_fc3d` in the storage `sweeps`.
-fn solve_in(
+/// Solves FC3D by NSGS in `storage`. `r` holds the warm start on entry and the impulses on
+/// exit.
+pub fn solve_fc3d(
     p: &Fc3d,
     r: &mut DVector<f64>,
     opts: &NsgsOptions,
-    sweeps: &mut Sweeps,
+    storage: &mut SolverStorage,
 ) -> SolverStatus {
+    let SolverStorage { sweeps, newton } = storage;
     let Sweeps {
         blocks,
         coupled,
@@ -111,17 +111,7 @@ fn solve_in(
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     let (mut previous, mut newton_tried) = (f64::INFINITY, false);
     for sweep in 1..=opts.max_sweeps {
-        for (a, (block, inverse)) in blocks.iter().enumerate() {
-            let o = 3 * a;
-            let ra = vector3(r, o);
-            // q_loc = q_a + Σ_{b≠a} W_ab r_b
-            let mut qloc = vector3(p.q, o);
-            for (b, w_ab) in coupled.of_contact(a) {
-                qloc += w_ab * vector3(r, 3 * b);
-            }
-            let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
-            set_vector3(r, o, &sol);
-        }
+        sweep_contacts(p, r, blocks, coupled);
         local_velocity(p, r, blocks, coupled, u);
         let residual = natural_map_error_at(p, r, u);
         if residual <= opts.tolerance || !residual.is_finite() {
@@ -136,7 +126,7 @@ fn solve_in(
             (best, best_sweep) = (residual, sweep);
         } else if sweep - best_sweep > STAGNATION_SWEEPS {
             coupled.pattern_into(n, pattern);
-            return last_resort(p, pattern, r, opts, sweep);
+            return last_resort(p, pattern, r, opts, sweep, newton);
         }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: switch to the global
         // Newton method from the current iterate as soon as the sweeps' own rate says they
@@ -151,7 +141,7 @@ fn solve_in(
             newton_tried = true;
             buffer::copy_into(trial, r);
             coupled.pattern_into(n, pattern);
-            if let Some(it) = global_newton(p, pattern, trial, opts.tolerance, 100) {
+            if let Some(it) = global_newton(p, pattern, trial, opts.tolerance, 100, newton) {
                 r.copy_from(trial);
                 return SolverStatus {
                     converged: true,
@@ -162,7 +152,28 @@ fn solve_in(
         }
     }
     coupled.pattern_into(n, pattern);
-    last_resort(p, pattern, r, opts, opts.max_sweeps)
+    last_resort(p, pattern, r, opts, opts.max_sweeps, newton)
+}
+
+/// One Gauss–Seidel sweep: each contact in index order solved exactly for its own
+/// impulse, the others' held at their latest values.
+fn sweep_contacts(
+    p: &Fc3d,
+    r: &mut DVector<f64>,
+    blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
+    coupled: &Coupling,
+) {
+    for (a, (block, inverse)) in blocks.iter().enumerate() {
+        let o = 3 * a;
+        let ra = vector3(r, o);
+        // q_loc = q_a + Σ_{b≠a} W_ab r_b
+        let mut qloc = vector3(p.q, o);
+        for (b, w_ab) in coupled.of_contact(a) {
+            qloc += w_ab * vector3(r, 3 * b);
+        }
+        let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
+        set_vector3(r, o, &sol);
+    }
 }
 
 /// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
@@ -233,15 +244,18 @@ fn last_resort(
     r: &mut DVector<f64>,
     opts: &NsgsOptions,
     sweeps: usize,
+    newton: &mut NewtonStorage,
 ) -> SolverStatus {
     let found = opts
         .last_resort
         .then(|| {
             let mut trial = r.clone();
-            let found = global_newton(p, pattern, &mut trial, opts.tolerance, 100).or_else(|| {
-                trial.copy_from(r);
-                proximal_newton(p, pattern, &mut trial, opts.tolerance, PROXIMAL_OUTER)
-            });
+            let found =
+                global_newton(p, pattern, &mut trial, opts.tolerance, 100, newton).or_else(|| {
+                    trial.copy_from(r);
+                    let tolerance = opts.tolerance;
+                    proximal_newton(p, pattern, &mut trial, tolerance, PROXIMAL_OUTER, newton)
+                });
             // the proximal iterations leave their best iterate, never worse than the sweeps' one
             *r = trial;
             found
@@ -432,7 +446,12 @@ mod tests {
             mu: &mu,
         };
         let mut r = DVector::zeros(6);
-        let status = solve_fc3d(&p, &mut r, &NsgsOptions::default());
+        let status = solve_fc3d(
+            &p,
+            &mut r,
+            &NsgsOptions::default(),
+            &mut SolverStorage::default(),
+        );
         assert!(status.converged && status.residual <= 1e-10, "{status:?}");
         // two sweeps to measure the rate, then at most two Newton iterations
         assert!(status.iterations <= 4, "{status:?}");
@@ -443,9 +462,9 @@ mod tests {
         assert!([1, 2, 4, 5].iter().all(|&k| r[k] == 0.0), "{r}");
     }
 
-    /// A solve reads nothing that an earlier one left in the thread's storage: two coupled
-    /// contacts, one sliding, solve to the same bits on a fresh thread and on one whose
-    /// storage holds NaN blocks and velocities of a larger problem.
+    /// A solve reads nothing that an earlier one left in its storage: two coupled
+    /// contacts, one sliding, solve to the same bits in fresh storage and in storage that
+    /// a larger problem used before.
     #[test]
     fn a_solve_reads_nothing_an_earlier_one_left() {
         let w = DMatrix::from_fn(6, 6, |i, j| {
@@ -458,43 +477,36 @@ mod tests {
         });
         let q = DVector::from_vec(vec![-1.0, 0.8, 0.1, -0.5, 0.0, 0.05]);
         let mu = [0.3, 0.5];
-        let solve = |poison: bool| {
-            let (w, q) = (w.clone(), q.clone());
-            std::thread::spawn(move || {
-                if poison {
-                    let nan = Matrix3::from_element(f64::NAN);
-                    SWEEPS.set(Some(Box::new(Sweeps {
-                        blocks: vec![(nan, Some(nan)); 3],
-                        coupled: Coupling {
-                            blocks: vec![(1, nan), (0, nan)],
-                            start: vec![0, 1, 2, 2],
-                        },
-                        u: DVector::from_element(9, f64::NAN),
-                        pattern: BlockPattern::of_pairs(3, [(0, 2)]),
-                        trial: DVector::from_element(9, f64::NAN),
-                    })));
-                }
-                let p = Fc3d {
-                    w: &w,
-                    q: &q,
-                    mu: &mu,
-                };
-                let mut r = DVector::zeros(6);
-                let status = solve_fc3d(&p, &mut r, &NsgsOptions::default());
-                (status, natural_map_error(&p, &r), r)
-            })
-            .join()
-            .unwrap()
+        let solve = |storage: &mut SolverStorage| {
+            let p = Fc3d {
+                w: &w,
+                q: &q,
+                mu: &mu,
+            };
+            let mut r = DVector::zeros(6);
+            let status = solve_fc3d(&p, &mut r, &NsgsOptions::default(), storage);
+            (status, natural_map_error(&p, &r), r)
         };
-        let (fresh, error, r) = solve(false);
+        // storage used by three coupled contacts, pressed and sliding
+        let mut used = SolverStorage::default();
+        let w3 = DMatrix::from_fn(9, 9, |i, j| if i == j { 3.0 } else { 0.4 });
+        let q3 = DVector::from_fn(9, |i, _| if i % 3 == 0 { -1.0 } else { 0.7 });
+        let p3 = Fc3d {
+            w: &w3,
+            q: &q3,
+            mu: &[0.2, 0.4, 0.6],
+        };
+        let mut r3 = DVector::zeros(9);
+        assert!(solve_fc3d(&p3, &mut r3, &NsgsOptions::default(), &mut used).converged);
+        let (fresh, error, r) = solve(&mut SolverStorage::default());
         assert!(fresh.converged && error <= 1e-10, "{fresh:?} {error}");
         // the first contact slides: its friction is on the cone's boundary
         assert!(
             (r[1].hypot(r[2]) - mu[0] * r[0]).abs() <= 1e-9 * r[0],
             "{r}"
         );
-        let (poisoned, _, r2) = solve(true);
-        assert_eq!(fresh, poisoned);
+        let (reused, _, r2) = solve(&mut used);
+        assert_eq!(fresh, reused);
         assert_eq!(r, r2);
     }
 }

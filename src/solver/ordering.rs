@@ -6,7 +6,7 @@
 //! contacts' index order the LU fills in almost completely.
 
 use crate::math::blocks::{block3, set_vector3, vector3};
-use crate::math::{buffer, kept};
+use crate::math::buffer;
 use nalgebra::{DMatrix, DVector};
 
 /// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
@@ -119,15 +119,15 @@ impl BlockPattern {
     /// Into `order`, a fill-reducing elimination order of the contacts, by minimum degree:
     /// at each step the contact with the fewest neighbours left (the lowest index on a tie)
     /// goes next, and its neighbours become coupled, as its elimination couples them.
-    pub fn minimum_degree_into(&self, order: &mut Vec<usize>) {
+    /// `scratch` is the elimination's storage, reused from one call to the next.
+    pub fn minimum_degree_into(&self, order: &mut Vec<usize>, scratch: &mut MinimumDegree) {
         let n = self.n;
-        let mut scratch = kept::take(&MINIMUM_DEGREE);
         let MinimumDegree {
             coupled,
             degree,
             left,
             neighbours,
-        } = &mut *scratch;
+        } = scratch;
         coupled.clone_from(&self.coupled);
         degree.clear();
         degree.extend((0..n).map(|a| self.row(a).len() - 1));
@@ -160,20 +160,15 @@ impl BlockPattern {
     }
 }
 
-/// The minimum-degree elimination's scratch, kept per thread (`kept`); every entry is
-/// written before it is read.
+/// The minimum-degree elimination's storage; every entry is written before it is read.
 #[derive(Default)]
-struct MinimumDegree {
+pub struct MinimumDegree {
     /// The pattern as elimination fills it in, each contact's degree, whether it is left,
     /// and the neighbours of the one eliminated.
     coupled: Vec<bool>,
     degree: Vec<usize>,
     left: Vec<bool>,
     neighbours: Vec<usize>,
-}
-
-thread_local! {
-    static MINIMUM_DEGREE: kept::Slot<MinimumDegree> = const { kept::Slot::new(None) };
 }
 
 #[cfg(test)]
@@ -185,7 +180,7 @@ mod tests {
     /// The minimum-degree order of `pattern`, formed in a list that held another one.
     fn order_of(pattern: &BlockPattern) -> Vec<usize> {
         let mut order = vec![7; 9];
-        pattern.minimum_degree_into(&mut order);
+        pattern.minimum_degree_into(&mut order, &mut MinimumDegree::default());
         order
     }
 

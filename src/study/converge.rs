@@ -5,11 +5,11 @@
 //! Monte-Carlo σ when a result directory gives it. The cheapest fidelity whose error on
 //! every output stays below the target is recommended as a study `fidelity` block.
 
-use super::subject::Subject;
+use super::sample_run::Subject;
 use super::summary::Summary;
 use super::Study;
 use crate::integrator::{IntegrationParameters, Preset, Scheme};
-use crate::scene::document::written;
+use crate::scene::parameter_paths::written;
 use crate::scene::schema::{IntegratorSpec, ToleranceSpec};
 use crate::scene::Tuning;
 use rayon::prelude::*;

@@ -9,9 +9,10 @@
 //! their scores, whatever the marginals. A linear (Pearson) correlation needs the
 //! Nataf equation ρₓ = E[x₁ x₂] solved for ρ by quadrature; for two normal inputs ρ = ρₓ.
 
+use super::build::at;
 use super::distribution::Distribution;
 use super::schema::CorrelationSpec;
-use super::{at, Parameter, StudyError};
+use super::{Parameter, StudyError};
 use crate::scene::error::line;
 use nalgebra::DMatrix;
 use serde_saphyr::Spanned;

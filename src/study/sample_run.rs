@@ -2,9 +2,8 @@
 //! analytic function scene. One sample = set the parameters, run, read the outputs.
 
 use super::Output;
-use crate::integrator::projection::ADMISSIBLE_DEPTH;
-use crate::probe_run::run_probes;
-use crate::scene::units::Dim;
+use crate::input::units::Dim;
+use crate::probe::run::run_probes;
 use crate::scene::{declared_type, FunctionScene, Scene, SceneError};
 use std::time::Instant;
 
@@ -52,7 +51,7 @@ fn suspicion(
             st.steps
         ));
     }
-    let allowed = ADMISSIBLE_DEPTH * params.projection_tolerance;
+    let allowed = params.admissible_depth();
     if initial_overlap > allowed {
         why.push(format!(
             "bodies overlapped at the start (by {initial_overlap:.3e} m)"

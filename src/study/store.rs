@@ -3,7 +3,7 @@
 //! Every file is written to a temporary name, fsynced and renamed, so that a reader (or a
 //! resumed run) sees a whole file or none.
 
-use super::subject::Diagnostics;
+use super::sample_run::Diagnostics;
 use anyhow::{bail, Context, Result};
 use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{DataType, Field, Schema};
@@ -110,37 +110,6 @@ pub const TAGS: [(&str, &str); 5] = [
         "the scaled distance to the nearest limit, negative outside (merged results only)",
     ),
 ];
-
-/// Column names no input or output may take: those of the results' own columns.
-pub const RESERVED: [&str; 13] = [
-    "sample_id",
-    "status",
-    "error",
-    "steps",
-    "max_penetration",
-    "max_solver_residual",
-    "nonconverged_steps",
-    "wall_ms",
-    "batch",
-    "stage",
-    "level",
-    "chain",
-    "margin",
-];
-
-/// Why `name` cannot name an output column, if it cannot: a reserved column's name, or a
-/// name that is empty.
-pub fn column_name_error(name: &str) -> Option<String> {
-    if name.trim().is_empty() {
-        return Some("must not be empty".into());
-    }
-    RESERVED.contains(&name).then(|| {
-        format!(
-            "`{name}` is the name of one of the results' own columns ({}); choose another",
-            RESERVED.join(", ")
-        )
-    })
-}
 
 /// Parquet key-value metadata keys.
 pub const META_HASH: &str = "mc_study.study_hash";
@@ -442,4 +411,25 @@ pub fn read(path: &Path) -> Result<Table> {
         metadata,
         digest,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::input::columns::{column_name_error, RESERVED};
+
+    /// Every column the store writes of its own is reserved for it, and nothing else is.
+    #[test]
+    fn the_reserved_names_are_the_stores_own_columns() {
+        let mut own: Vec<&str> = ["sample_id", "status", "error"].to_vec();
+        own.extend(DIAGNOSTICS.iter().map(|d| d.0));
+        own.extend(TAGS.iter().map(|t| t.0));
+        let mut reserved = RESERVED.to_vec();
+        own.sort_unstable();
+        reserved.sort_unstable();
+        assert_eq!(own, reserved);
+        assert!(column_name_error("margin").is_some());
+        assert!(column_name_error(" ").is_some());
+        assert_eq!(column_name_error("trip_time"), None);
+    }
 }

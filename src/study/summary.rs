@@ -7,7 +7,7 @@
 use super::statistics as st;
 use super::store::Table;
 use super::{Output, Parameter};
-use crate::scene::units::{Dim, DisplayUnit};
+use crate::input::units::{Dim, DisplayUnit};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::fmt::{self, Write};

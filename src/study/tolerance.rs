@@ -1,10 +1,11 @@
 //! A parameter as a drawing states it (nominal, band, process capability), the cost of its
 //! tolerance, and the box a worst-case search explores.
 
+use super::build::at;
 use super::schema::{AllocationSpec, CostSpec};
-use super::{at, statistics, AllocationTarget, Distribution, Output, Parameter, StudyError};
+use super::{statistics, AllocationTarget, Distribution, Output, Parameter, StudyError};
+use crate::input::units::{Dim, DisplayUnit};
 use crate::scene::error::line;
-use crate::scene::units::{Dim, DisplayUnit};
 use serde_saphyr::Spanned;
 
 /// `55 mm +0.05/−0.02, Cp 1.33`: a nominal value with its band [nominal − minus,

@@ -1,3 +1,5 @@
+#![allow(dead_code)] // each user takes the cells it needs
+
 //! Stability at the extremes: the cases where published integrators break (micrometre
 //! clearances, steps from 1e-7 to 1e-2 s, e = 0 and 1, μ up to 5, fast spin, long runs,
 //! stiff springs, many contacts), each run to its end and checked. A cell passes when the
@@ -5,17 +7,18 @@
 //! tolerance and the energy does not grow where the physics forbids it. Steps whose solver
 //! missed its tolerance do not fail a cell, but they are counted and shown, never hidden.
 //!
-//! `tests/extremes.rs` runs the matrix at a size CI affords; `cargo run --release --example
-//! extremes` runs it in full and prints the table published in the README.
+//! A harness for tests and examples, outside the library: `tests/extremes.rs` runs the
+//! matrix at a size CI affords; `cargo run --release --example extremes` runs it in full
+//! and prints the table of docs/extremes.md.
 
-use crate::scene::Scene;
+use mc_study::scene::Scene;
 use std::time::Instant;
 
 /// Largest accepted penetration of a contact and violation of a joint (m).
 pub const POSITION_TOLERANCE: f64 = 1e-9;
 
-const PENDULUM_CLEARANCE: &str = include_str!("../studies/pendulum-clearance/scene.yaml");
-const PENDULUM: &str = include_str!("../studies/pendulum/scene.yaml");
+const PENDULUM_CLEARANCE: &str = include_str!("../../studies/pendulum-clearance/scene.yaml");
+const PENDULUM: &str = include_str!("../../studies/pendulum/scene.yaml");
 
 /// One cell of the matrix: a scene, how long to run it and what the physics allows.
 pub struct Case {

@@ -316,22 +316,26 @@ pub struct Placed {
     rings: [(Ring, (f64, f64)); 2],
 }
 
-/// (sin, cos) of `k`/`n` of a turn: a flange's rim point k of n. Kept for the last n on
-/// each thread (a mechanism's joints share one), so that a point costs no sine and cosine.
+/// (sin, cos) of `k`/`n` of a turn: a flange's rim point k of n. Tabulated once for the
+/// counts up to `TABULATED_RIM`, so that a rim point costs no sine and cosine.
 fn rim_turn(k: usize, n: usize) -> (f64, f64) {
-    thread_local! {
-        static TURNS: std::cell::RefCell<Vec<(f64, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
+    let turn = |k: usize, n: usize| (2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos();
+    static TURNS: std::sync::OnceLock<Vec<Vec<(f64, f64)>>> = std::sync::OnceLock::new();
+    match TURNS
+        .get_or_init(|| {
+            (0..=TABULATED_RIM)
+                .map(|n| (0..n).map(|k| turn(k, n)).collect())
+                .collect()
+        })
+        .get(n)
+    {
+        Some(turns) => turns[k],
+        None => turn(k, n),
     }
-    TURNS.with_borrow_mut(|turns| {
-        if turns.len() != n {
-            turns.clear();
-            turns.extend(
-                (0..n).map(|k| (2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos()),
-            );
-        }
-        turns[k]
-    })
 }
+
+/// Rim point counts up to this one have their turns tabulated.
+const TABULATED_RIM: usize = 64;
 
 /// (cos, sin) of k/RING_POINTS of a turn, k = 0…RING_POINTS − 1: the guards' angles from the
 /// closest point, turned by products instead of a sine and cosine per guard.

@@ -4,7 +4,7 @@
 
 use super::convex::{ConvexPart, Surface};
 use super::mesh::MeshPart;
-use super::profile::{Pin, Profile, OUT_OF_REACH};
+use super::profile::{Outline, Pin, OUT_OF_REACH};
 use super::revolution::Revolution;
 use crate::math::any_orthogonal;
 use crate::mechanics::body::Pose;
@@ -54,7 +54,7 @@ pub enum Primitive {
     },
     /// A planar profile of segments and arcs, extruded (`profile.rs`); pins (points,
     /// spheres, cylinders) meet it.
-    Profile(Box<Profile>),
+    Profile(Box<Outline>),
     /// A convex polyhedron (`convex.rs`).
     Convex(Box<ConvexPart>),
     /// A triangle mesh, for fixed parts (`mesh.rs`).

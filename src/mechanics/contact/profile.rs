@@ -76,9 +76,9 @@ enum Feature {
     },
 }
 
-/// A profile in its body's frame.
+/// A planar outline (a profile primitive), extruded, in its body's frame.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Profile {
+pub struct Outline {
     /// Centre of the extrusion (on the profile's plane, mid-thickness), body frame.
     origin: Vector3<f64>,
     /// The plane's axes u, v and its normal n = u × v, body frame.
@@ -122,7 +122,7 @@ fn left(t: &Vector2<f64>) -> Vector2<f64> {
     Vector2::new(-t.y, t.x)
 }
 
-impl Profile {
+impl Outline {
     /// Builds a profile from its start and pieces. `axes` are the plane's in-plane axes and
     /// normal (body frame, orthonormal, right-handed) and `origin` the plane's origin. The
     /// path is closed when its last piece ends at its start. Errors name the piece (index
@@ -134,7 +134,7 @@ impl Profile {
         start: Vector2<f64>,
         pieces: &[Piece],
         solid: Solid,
-    ) -> Result<Profile, (Option<usize>, String)> {
+    ) -> Result<Outline, (Option<usize>, String)> {
         if pieces.is_empty() {
             return Err((None, "a profile needs at least one piece".into()));
         }
@@ -320,7 +320,7 @@ impl Profile {
                 Piece::Line { to } | Piece::Arc { to, .. } => *to,
             }))
             .collect();
-        Ok(Profile {
+        Ok(Outline {
             origin,
             axes,
             half_thickness: 0.5 * thickness,
@@ -535,7 +535,7 @@ struct ProfilePin {
     radius: f64,
 }
 
-impl Profile {
+impl Outline {
     fn pins(&self) -> impl Iterator<Item = ProfilePin> + '_ {
         let points = if self.closed {
             &self.vertices[..self.vertices.len() - 1]
@@ -570,7 +570,7 @@ impl Profile {
     /// Candidate points against another profile `a` (on body 1; this one is on body 2):
     /// per face of the two thicknesses' overlap, each pin of `a` against each feature of
     /// this profile, then each pin of this one against each feature of `a`.
-    pub fn candidate_count_against(&self, a: &Profile) -> usize {
+    pub fn candidate_count_against(&self, a: &Outline) -> usize {
         2 * (a.pins().count() * self.features.len() + self.pins().count() * a.features.len())
     }
 
@@ -581,7 +581,7 @@ impl Profile {
     pub fn contact_profile(
         &self,
         pb: &Pose,
-        a: &Profile,
+        a: &Outline,
         pa: &Pose,
         k: usize,
     ) -> super::ContactGeometry {
@@ -633,10 +633,10 @@ impl Profile {
 /// outward normal, the point on the pin and the point on q; `None` where the feature is
 /// not in play or the touching point of an arc pin is off its arc.
 fn pin_on_profile(
-    p: &Profile,
+    p: &Outline,
     pp: &Pose,
     pin: &ProfilePin,
-    q: &Profile,
+    q: &Outline,
     pq: &Pose,
     j: usize,
     z: f64,
@@ -898,7 +898,7 @@ mod tests {
     fn distance_matches_brute_force_on_segments_arcs_joints_and_corners() {
         let (start, pieces) = latch();
         let profile =
-            Profile::new(Vector3::zeros(), xy(), 0.01, start, &pieces, Solid::Inside).unwrap();
+            Outline::new(Vector3::zeros(), xy(), 0.01, start, &pieces, Solid::Inside).unwrap();
         // the right-angle corners, and the notch's two ends: four convex corners
         let corners = profile
             .features
@@ -952,7 +952,7 @@ mod tests {
     fn normals_are_gap_gradients_and_continuous_across_tangent_joints() {
         let (start, pieces) = latch();
         let profile =
-            Profile::new(Vector3::zeros(), xy(), 0.01, start, &pieces, Solid::Inside).unwrap();
+            Outline::new(Vector3::zeros(), xy(), 0.01, start, &pieces, Solid::Inside).unwrap();
         let dist = |c: Vector2<f64>| profile.distance(&c).unwrap();
         let eps = 1e-7;
         for c in points(200, v(-0.01, -0.01), v(0.06, 0.045)) {
@@ -1004,7 +1004,7 @@ mod tests {
                 ccw: true,
             },
         ];
-        let p = Profile::new(
+        let p = Outline::new(
             Vector3::zeros(),
             xy(),
             0.01,
@@ -1021,7 +1021,7 @@ mod tests {
         assert_eq!(in_play.len(), 1);
         assert!((in_play[0] - 0.02).abs() < 1e-15, "{in_play:?}");
         // the same shape as a hole: a pin inside sees both flats (a slot)
-        let hole = Profile::new(
+        let hole = Outline::new(
             Vector3::zeros(),
             xy(),
             0.01,
@@ -1050,7 +1050,7 @@ mod tests {
         let pieces = vec![Piece::Line { to: v(1.0, 0.0) }];
         // a floor along u, material below, in the body's xz plane (normal −y... use u = x, v = z)
         let axes = [Vector3::x(), Vector3::z(), -Vector3::y()];
-        let wall = Profile::new(
+        let wall = Outline::new(
             Vector3::zeros(),
             axes,
             0.02,
@@ -1093,7 +1093,7 @@ mod tests {
     fn bad_paths_name_the_piece() {
         let line = |x: f64, y: f64| Piece::Line { to: v(x, y) };
         let err = |start: Vector2<f64>, pieces: &[Piece], solid: Solid| {
-            Profile::new(Vector3::zeros(), xy(), 0.01, start, pieces, solid).unwrap_err()
+            Outline::new(Vector3::zeros(), xy(), 0.01, start, pieces, solid).unwrap_err()
         };
         let e = err(
             v(0.0, 0.0),
@@ -1140,8 +1140,8 @@ mod tests {
         use crate::mechanics::contact::{ContactPair, Primitive};
         let (ls, lp) = latch();
         let (ts, tp) = tooth();
-        let latch = Profile::new(Vector3::zeros(), xy(), 0.01, ls, &lp, Solid::Inside).unwrap();
-        let tooth = Profile::new(Vector3::zeros(), xy(), 0.01, ts, &tp, Solid::Inside).unwrap();
+        let latch = Outline::new(Vector3::zeros(), xy(), 0.01, ls, &lp, Solid::Inside).unwrap();
+        let tooth = Outline::new(Vector3::zeros(), xy(), 0.01, ts, &tp, Solid::Inside).unwrap();
         let pair = ContactPair::new(
             "latch",
             Some(0),
