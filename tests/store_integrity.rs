@@ -196,7 +196,8 @@ fn a_merge_never_replaces_a_more_complete_result() {
 }
 
 /// A run that goes through with a fault is `suspect`, with the reason, and counted in the
-/// summary; `suspect: fail` makes it a failure. Here: bodies that overlap at the start.
+/// summary; `suspect: fail` makes it a failure. Here: bodies that overlap at the start,
+/// named with their contact and the depth.
 #[test]
 fn runs_that_start_overlapped_are_suspect_or_failed_as_the_study_says() {
     let dir = scratch("integrity-suspect");
@@ -227,7 +228,11 @@ fn runs_that_start_overlapped_are_suspect_or_failed_as_the_study_says() {
             };
             assert_eq!(flagged.is_some(), started_inside, "row {}: {r:?}", r.id);
             if let Some(why) = flagged {
-                assert!(why.contains("overlapped at the start"), "{why}");
+                // the pair is named, and the depth is the written one
+                let named = "bodies overlapped at the start: `ball` and `ground`, contact `floor`";
+                assert!(why.contains(named), "{why}");
+                let depth = format!("(by {:.3e} m)", 0.1 - r.inputs[0]);
+                assert!(why.contains(&depth), "{why} lacks {depth}");
             }
         }
         if fails {
@@ -235,7 +240,7 @@ fn runs_that_start_overlapped_are_suspect_or_failed_as_the_study_says() {
         } else {
             assert_eq!((m.summary.failed, m.summary.suspect), (0, overlapped));
             assert!(m.summary.to_string().contains(&format!(
-                "suspect ×{overlapped}: bodies overlapped at the start"
+                "suspect ×{overlapped}: bodies overlapped at the start: `ball` and `ground`, contact `floor`"
             )));
         }
     }
@@ -273,4 +278,38 @@ fn edited_copies_of_the_study_do_not_change_the_summary() {
     )
     .unwrap();
     assert_eq!(count(&merge(&out, false).unwrap()), before);
+}
+
+/// `simulate` names an overlap at t = 0 (the pair and the depth) before its diagnostics; a
+/// scene that starts clear reports none.
+#[test]
+fn simulate_names_bodies_that_start_overlapped() {
+    use mc_study::scene::Scene;
+    use mc_study::single_run::{simulate, SimulateOptions};
+    let scene = |z: &str| {
+        Scene::from_yaml(
+            &format!("duration: 0.01 s\nbodies:\n  - {{ name: ball, mass: 1 kg, shape: {{ sphere: {{ radius: 0.1 m }} }}, position: [0, 0, {z}] }}\ncontacts:\n  - {{ name: floor, body: ball, shape: {{ sphere: {{ radius: 0.1 m }} }}, against: ground, against_shape: {{ plane: {{ point: [0, 0, 0], normal: [0, 0, 1] }} }}, e: 0 }}\n"),
+            "overlap.yaml",
+        )
+        .unwrap()
+    };
+    let options = SimulateOptions {
+        duration: None,
+        trajectory: None,
+        drawing: None,
+    };
+    let report = simulate(&scene("0.0915 m"), "overlap.yaml", &options).unwrap();
+    let (what, depth) = report.overlap.clone().expect("the overlap is named");
+    assert_eq!(what, "`ball` and `ground`, contact `floor`");
+    assert!((depth - 8.5e-3).abs() < 1e-12, "{depth}");
+    let text = report.to_string();
+    assert!(
+        text.contains(
+            "overlap          at t = 0: `ball` and `ground`, contact `floor`, by 8.500e-3 m"
+        ),
+        "{text}"
+    );
+    let clear = simulate(&scene("0.5 m"), "clear.yaml", &options).unwrap();
+    assert_eq!(clear.overlap, None);
+    assert!(!clear.to_string().contains("overlap "));
 }

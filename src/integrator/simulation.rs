@@ -294,6 +294,42 @@ impl Simulation {
         &self.candidates
     }
 
+    /// The deepest overlap at the current state beyond what the scheme admits
+    /// (`IntegrationParameters::admissible_depth`): what overlaps, named, and how deep (m).
+    /// At t = 0 it is a modelling error that a run's later failure would only show as a
+    /// symptom (a journal thrown out of its bore).
+    pub fn deepest_overlap(&self) -> Option<(String, f64)> {
+        let (i, depth) = (0..self.points.len())
+            .filter(|&i| !self.is_guard(i))
+            .map(|i| (i, -self.points[i].gap()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))?;
+        if depth <= self.params.admissible_depth() {
+            return None;
+        }
+        let candidate = self.candidates[i];
+        let name = self.model.candidate_name(candidate);
+        let body = |b: crate::mechanics::BodyRef| {
+            b.map_or("ground".to_string(), |b| self.model.bodies[b].name.clone())
+        };
+        let what = match candidate {
+            Candidate::Pair { pair, .. } => {
+                let p = &self.model.contacts[pair];
+                format!(
+                    "`{}` and `{}`, contact `{name}`",
+                    body(p.body1),
+                    body(p.body2)
+                )
+            }
+            Candidate::Clearance { joint, .. } => {
+                let j = &self.model.clearance_joints[joint];
+                let (a, b) = (body(j.bore_body), body(j.journal_body));
+                format!("journal `{b}` and bore `{a}`, clearance joint point `{name}`")
+            }
+            Candidate::Limit { .. } => format!("a joint past its limit `{name}`"),
+        };
+        Some((what, depth))
+    }
+
     /// Impulse (P_N, P_T1, P_T2) of each candidate over the last step (zero if inactive).
     pub fn impulses(&self) -> &[Vector3<f64>] {
         &self.impulses

@@ -117,6 +117,8 @@ pub struct SimulateReport {
     pub probes: Vec<ProbeValue>,
     /// The failure that ended the run early, if any.
     pub error: Option<String>,
+    /// The deepest overlap at t = 0 beyond what the scheme admits: what, and how deep (m).
+    pub overlap: Option<(String, f64)>,
 }
 
 /// Runs `scene` (`source` names it in the report) with `options`, writing the trajectory
@@ -125,6 +127,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
     let duration = options.duration.unwrap_or(scene.duration);
     let every = scene.record_every as u64;
     let sim = scene.simulation()?;
+    let overlap = sim.deepest_overlap();
     let h = sim.params.h;
     let drawing = options.drawing.as_ref();
     let mut snapshots: Vec<Snapshot> = Vec::new();
@@ -227,7 +230,14 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
         trajectory,
         drawing,
         probes,
-        error: run.error,
+        error: run.error.map(|e| match &overlap {
+            // the modelling error, not its symptom, comes first
+            Some((what, depth)) => format!(
+                "bodies overlap at t = 0: {what}, by {depth:.3e} m; the run then failed: {e}"
+            ),
+            None => e,
+        }),
+        overlap,
     })
 }
 
@@ -243,6 +253,12 @@ impl fmt::Display for SimulateReport {
         let st = &self.stats;
         writeln!(f, "scene            {} ({})", self.scene, self.source)?;
         write!(f, "{}", self.assembly)?;
+        if let Some((what, depth)) = &self.overlap {
+            writeln!(
+                f,
+                "overlap          at t = 0: {what}, by {depth:.3e} m (check the written positions)"
+            )?;
+        }
         writeln!(
             f,
             "scheme           {} h = {:e} s{}, θ = {}",

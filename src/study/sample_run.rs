@@ -41,7 +41,7 @@ pub struct Outcome {
 fn suspicion(
     st: &crate::integrator::RunStats,
     params: &crate::integrator::IntegrationParameters,
-    initial_overlap: f64,
+    initial_overlap: Option<&(String, f64)>,
 ) -> Option<String> {
     let mut why = Vec::new();
     let nonconverged = st.solver_failures + st.newton_failures + st.projection_failures;
@@ -52,9 +52,9 @@ fn suspicion(
         ));
     }
     let allowed = params.admissible_depth();
-    if initial_overlap > allowed {
+    if let Some((what, depth)) = initial_overlap {
         why.push(format!(
-            "bodies overlapped at the start (by {initial_overlap:.3e} m)"
+            "bodies overlapped at the start: {what} (by {depth:.3e} m)"
         ));
     }
     if params.scheme.projects() {
@@ -187,7 +187,7 @@ impl Subject {
                     Ok(s) => s,
                     Err(e) => return failed(Diagnostics::default(), e.to_string()),
                 };
-                let initial_overlap = sim.stats.max_penetration;
+                let initial_overlap = sim.deepest_overlap();
                 let run = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
                 let st = run.stats;
                 let diagnostics = Diagnostics {
@@ -199,7 +199,7 @@ impl Subject {
                         + st.projection_failures,
                     wall_ms: 0.0,
                 };
-                let suspect = suspicion(&st, &scene.params, initial_overlap);
+                let suspect = suspicion(&st, &scene.params, initial_overlap.as_ref());
                 let values: Result<Vec<f64>, String> = match run.error {
                     Some(e) => Err(e),
                     None => run.values.into_iter().collect(),
