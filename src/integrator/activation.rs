@@ -191,8 +191,8 @@ impl Simulation {
     }
 
     /// Projects `poses`, the end-of-step poses of the pass `vs` with the contacts `active`;
-    /// returns the projection's outcome and every candidate's point there (the pool's pair contacts and joint stops as the
-    /// projection left them).
+    /// returns the projection's outcome and every candidate's point there (the pool's pair
+    /// contacts and joint stops as the projection left them).
     ///
     /// Project onto g = 0, as equalities, the active contacts that penetrate and those that
     /// stay closed (pressed, not separating: u_N,k+1 ≤ e|u_N,k|/2). A contact that rebounds

@@ -30,10 +30,11 @@ pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &mut Vec<ContactPoint>);
 /// contact's impulse acts along its rows at the step's midpoint and its velocity is
 /// measured at the step's end: a contact sliding along a concave surface, or carried on a
 /// long lever by a turning body, then drifts off its surface by O(h³) per step instead of
-/// O(h²), and steady sliding along a circle does no work. The Delassus matrix is then not symmetric, which slows the
-/// solver. A contact that closes within the step keeps the rows it is given: the same rows
-/// then measure its impulse and both velocities of Newton's law, which is what makes an
-/// impact with e = 1 keep the kinetic energy and one with e < 1 lose it, at any step.
+/// O(h²), and steady sliding along a circle does no work. The Delassus matrix is then not
+/// symmetric, which slows the solver. A contact that closes within the step keeps the rows
+/// it is given: the same rows then measure its impulse and both velocities of Newton's law,
+/// which is what makes an impact with e = 1 keep the kinetic energy and one with e < 1 lose
+/// it, at any step.
 pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
     pub persistent: &'a [usize],

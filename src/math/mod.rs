@@ -1,8 +1,8 @@
 //! Rotation helpers on top of nalgebra: the skew operator, the quaternion exponential map
 //! and the deterministic tangent basis of a contact normal; (`buffer`) vectors resized in
-//! place, for storage reused from one step to the next; (`sized`) loops specialised to the small sizes of joint and contact systems;
-//! and (`blocks`) the 3- and 6-vectors and 3×3 blocks of slices, dynamic vectors and
-//! matrices, read by index.
+//! place, for storage reused from one step to the next; (`sized`) loops specialised to the
+//! small sizes of joint and contact systems; and (`blocks`) the 3- and 6-vectors and 3×3
+//! blocks of slices, dynamic vectors and matrices, read by index.
 //!
 //! Quaternions stay nalgebra's `UnitQuaternion`; nothing here multiplies quaternion
 //! components by hand except the exponential map itself, which needs a series near zero.

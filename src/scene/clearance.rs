@@ -87,8 +87,8 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
 }
 
 /// The bore's centre and axis in the bore body's frame and the journal's point and axis in
-/// the journal body's frame, in this order: from a world anchor and axis at the written configuration, or
-/// given in the body frames.
+/// the journal body's frame, in this order: from a world anchor and axis at the written
+/// configuration, or given in the body frames.
 fn frames(
     model: &Model,
     spec: &JointSpec,
