@@ -241,3 +241,41 @@ fn bouncing_ball_study_matches_its_closed_forms_per_sample() {
         );
     }
 }
+
+/// y = x1 − 0.3 x2 with x1 and x2 standard normal at rank correlation 0.9: x2 lowers y,
+/// yet its Spearman ρ with y is strongly positive (0.82 in closed form, since x2 follows
+/// x1). The summary's strongest inputs rank by the standardised rank regression
+/// coefficient, which holds x1 fixed: x1 first at about +1.35 (1/σ_y), then x2 negative at
+/// about −0.41 (−0.3/σ_y, σ_y = 0.739).
+#[test]
+fn strongest_inputs_keep_their_sign_when_inputs_are_correlated() {
+    let dir = scratch("stats-correlated-inputs");
+    std::fs::write(
+        dir.join("scene.yaml"),
+        "type: function\nname: partial\ninputs: [x1, x2]\noutputs:\n  - { name: y, expression: \"x1 - 0.3*x2\" }\n",
+    )
+    .unwrap();
+    let s = study(
+        &dir,
+        "scene: scene.yaml\nsamples: 2000\nseed: 11\nparameters:\n  - { path: inputs.x1, distribution: { normal: { mean: 0, sd: 1 } } }\n  - { path: inputs.x2, distribution: { normal: { mean: 0, sd: 1 } } }\ncorrelations:\n  - { between: [inputs.x1, inputs.x2], rank: 0.9 }\n",
+    );
+    let m = run_all(&s, &dir.join("out"));
+    let of = |input: &str| {
+        m.summary
+            .correlations
+            .iter()
+            .find(|c| c.input == input && c.output == "y")
+            .unwrap()
+            .clone()
+    };
+    let (x1, x2) = (of("inputs.x1"), of("inputs.x2"));
+    assert!(x2.spearman > 0.7, "ρ(x2, y) = {}", x2.spearman);
+    assert!((x1.srrc - 1.35).abs() < 0.1, "SRRC(x1) = {}", x1.srrc);
+    assert!((x2.srrc + 0.41).abs() < 0.1, "SRRC(x2) = {}", x2.srrc);
+    let strongest = m.summary.strongest_inputs("y");
+    let names: Vec<&str> = strongest.iter().map(|(c, _)| c.input.as_str()).collect();
+    assert_eq!(names, ["inputs.x1", "inputs.x2"]);
+    assert!(strongest[1].1 < 0.0);
+    let text = m.summary.to_string();
+    assert!(text.contains("inputs.x2 -0.4"), "{text}");
+}

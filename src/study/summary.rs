@@ -170,6 +170,16 @@ pub struct Correlation {
     pub pearson: f64,
     #[serde(deserialize_with = "nan")]
     pub spearman: f64,
+    /// The input's standardised rank regression coefficient for this output: its rank
+    /// correlation with the others' held fixed, so that an input which merely happens to
+    /// be correlated with a strong one in the sample does not borrow its sign. NaN where
+    /// the regression cannot be formed (fewer rows than inputs + 2, a constant output).
+    #[serde(default = "no_value", deserialize_with = "nan")]
+    pub srrc: f64,
+}
+
+fn no_value() -> f64 {
+    f64::NAN
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -312,16 +322,27 @@ impl Summary {
                 cpk,
             });
         }
+        let columns: Vec<Vec<f64>> = (0..table.columns.inputs.len())
+            .map(|i| ok.iter().map(|r| r.inputs[i]).collect())
+            .collect();
+        let srrc: Vec<Vec<f64>> = (0..table.columns.outputs.len())
+            .map(|k| {
+                let y: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
+                super::sensitivity::srrc(&columns, &y)
+                    .map_or(vec![f64::NAN; columns.len()], |r| r.coefficients)
+            })
+            .collect();
         let mut correlations = Vec::new();
         for (i, (input, _)) in table.columns.inputs.iter().enumerate() {
-            let x: Vec<f64> = ok.iter().map(|r| r.inputs[i]).collect();
+            let x = &columns[i];
             for (k, (output, _)) in table.columns.outputs.iter().enumerate() {
                 let y: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
                 correlations.push(Correlation {
                     input: input.clone(),
                     output: output.clone(),
-                    pearson: st::pearson(&x, &y),
-                    spearman: st::spearman(&x, &y),
+                    pearson: st::pearson(x, &y),
+                    spearman: st::spearman(x, &y),
+                    srrc: srrc[k][i],
                 });
             }
         }
@@ -386,15 +407,18 @@ impl Summary {
         self.outputs.iter().find(|o| o.name == name)
     }
 
-    /// The inputs most strongly correlated with `output` (|Spearman ρ| ≥ 0.1, the strongest
-    /// first, at most three).
-    pub fn strongest_inputs(&self, output: &str) -> Vec<&Correlation> {
-        let mut v: Vec<&Correlation> = self
+    /// The inputs that drive `output` most (|SRRC| ≥ 0.1, the strongest first, at most
+    /// three), each with its measure: the standardised rank regression coefficient, or
+    /// Spearman's ρ where the regression cannot be formed.
+    pub fn strongest_inputs(&self, output: &str) -> Vec<(&Correlation, f64)> {
+        let mut v: Vec<(&Correlation, f64)> = self
             .correlations
             .iter()
-            .filter(|c| c.output == output && c.spearman.abs() >= STRONG_CORRELATION)
+            .filter(|c| c.output == output)
+            .map(|c| (c, if c.srrc.is_nan() { c.spearman } else { c.srrc }))
+            .filter(|(_, m)| m.abs() >= STRONG_CORRELATION)
             .collect();
-        v.sort_by(|a, b| b.spearman.abs().total_cmp(&a.spearman.abs()));
+        v.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
         v.truncate(STRONGEST_INPUTS);
         v
     }
@@ -508,17 +532,17 @@ impl fmt::Display for Summary {
         if !self.correlations.is_empty() {
             let _ = writeln!(
                 s,
-                "strongest inputs (Spearman ρ, |ρ| ≥ {STRONG_CORRELATION}, at most {STRONGEST_INPUTS} per output; all pairs in summary.json):"
+                "strongest inputs (standardised rank regression coefficient SRRC, |SRRC| ≥ {STRONG_CORRELATION}, at most {STRONGEST_INPUTS} per output; all pairs in summary.json):"
             );
             let w = self.outputs.iter().map(|o| o.name.len()).max().unwrap_or(0);
             for o in &self.outputs {
                 let strongest = self.strongest_inputs(&o.name);
                 let list = if strongest.is_empty() {
-                    format!("none with |ρ| ≥ {STRONG_CORRELATION}")
+                    format!("none with |SRRC| ≥ {STRONG_CORRELATION}")
                 } else {
                     strongest
                         .iter()
-                        .map(|c| format!("{} {:+.2}", c.input, c.spearman))
+                        .map(|(c, m)| format!("{} {m:+.2}", c.input))
                         .collect::<Vec<_>>()
                         .join(", ")
                 };
