@@ -8,6 +8,7 @@ use super::params::IntegrationParameters;
 use super::projection::{ContactRows, ProjectionOutcome};
 use super::simulation::{Closing, Outcome, Simulation, StepReport};
 use super::workspace::{ProjectionWorkspace, StepWorkspace};
+use crate::math::buffer::keep_larger;
 use crate::mechanics::{ContactPoint, Pose};
 
 /// A guard enters the velocity problem only when the step would carry the journal past it
@@ -42,14 +43,9 @@ pub(super) struct ActivationLists {
 impl ActivationLists {
     /// Keeps a list of contact points, once done with, for a later pass's.
     pub(super) fn keep_points(&mut self, points: Option<Vec<ContactPoint>>) {
-        keep_larger(&mut self.points, points);
-    }
-}
-
-/// `points` in place of `kept` where it holds more storage.
-fn keep_larger(kept: &mut Vec<ContactPoint>, points: Option<Vec<ContactPoint>>) {
-    if let Some(points) = points.filter(|p| p.capacity() > kept.capacity()) {
-        *kept = points;
+        if let Some(points) = points {
+            keep_larger(&mut self.points, points);
+        }
     }
 }
 
@@ -101,7 +97,7 @@ impl Simulation {
                 if let Some((_, vs, poses, points)) = last.replace((active, vs, poses, after)) {
                     velocity.step.keep_spent(vs);
                     velocity.step.keep_poses(poses);
-                    keep_larger(&mut lists.points, Some(points));
+                    keep_larger(&mut lists.points, points);
                 }
                 break;
             }
@@ -116,7 +112,7 @@ impl Simulation {
             if let Some((_, vs, poses, points)) = last.replace((active.clone(), vs, poses, after)) {
                 velocity.step.keep_spent(vs);
                 velocity.step.keep_poses(poses);
-                keep_larger(&mut lists.points, Some(points));
+                keep_larger(&mut lists.points, points);
             }
             active.extend(new.iter().copied());
             active.sort_unstable();

@@ -678,9 +678,7 @@ impl VelocityStorage {
 
     /// Keeps a list of poses once done with, for `copy_poses`.
     pub(super) fn keep_poses(&mut self, poses: Vec<Pose>) {
-        if poses.capacity() >= self.spare_poses.capacity() {
-            self.spare_poses = poses;
-        }
+        buffer::keep_larger(&mut self.spare_poses, poses);
     }
 }
 

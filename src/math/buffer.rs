@@ -45,6 +45,14 @@ fn resized(mut data: Vec<f64>, n: usize) -> Vec<f64> {
     data
 }
 
+/// Keeps `v`, a list done with, in place of `kept` where it holds at least as much
+/// storage: the next list built there reuses it instead of allocating.
+pub fn keep_larger<T>(kept: &mut Vec<T>, v: Vec<T>) {
+    if v.capacity() >= kept.capacity() {
+        *kept = v;
+    }
+}
+
 /// Copies `src` into `dst`.
 pub fn copy_into(dst: &mut DVector<f64>, src: &DVector<f64>) {
     fit(dst, src.len());

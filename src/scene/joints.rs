@@ -164,6 +164,19 @@ pub(super) fn joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> 
     Ok(BuiltJoint::Ideal(joint, initial))
 }
 
+/// Refuses a drive or limits (`what` they give) on a joint of `kind` without a coordinate:
+/// only revolute and prismatic joints have one.
+fn has_coordinate(kind: JointKind, at: Option<u64>, field: String, what: &str) -> R<()> {
+    match kind {
+        JointKind::Revolute | JointKind::Prismatic => Ok(()),
+        _ => Err(SceneError::at(
+            at,
+            field,
+            format!("only revolute and prismatic joints {what}"),
+        )),
+    }
+}
+
 /// A joint's drive: a velocity, a position table, an effort or an effort table.
 fn drive(
     d: &Spanned<DriveSpec>,
@@ -171,13 +184,7 @@ fn drive(
     initial: &JointStart,
     f: &dyn Fn(&str) -> String,
 ) -> R<Drive> {
-    if kind != JointKind::Revolute && kind != JointKind::Prismatic {
-        return Err(SceneError::at(
-            line(d),
-            f("drive"),
-            "only revolute and prismatic joints can be driven",
-        ));
-    }
+    has_coordinate(kind, line(d), f("drive"), "can be driven")?;
     let rot = kind == JointKind::Revolute;
     let (vel_dim, pos_dim, eff_dim) = if rot {
         (Dim::ANGULAR_VELOCITY, Dim::NONE, Dim::TORQUE)
@@ -243,13 +250,7 @@ fn limits(
     initial: &JointStart,
     f: &dyn Fn(&str) -> String,
 ) -> R<JointLimits> {
-    if kind != JointKind::Revolute && kind != JointKind::Prismatic {
-        return Err(SceneError::at(
-            line(l),
-            f("limits"),
-            "only revolute and prismatic joints have limits",
-        ));
-    }
+    has_coordinate(kind, line(l), f("limits"), "have limits")?;
     let dim = if kind == JointKind::Revolute {
         Dim::NONE
     } else {
