@@ -408,7 +408,7 @@ fn study_parameters_override_the_scene_by_path() {
         .unwrap_err();
     assert!(
         e.contains("joints.pivot.clearance = -0.00001")
-            && e.contains("`joints[0].clearance` must be positive"),
+            && e.contains("`joints[0].clearance` must be ≥ 0"),
         "{e}"
     );
     let e = scene
@@ -813,4 +813,60 @@ fn a_rings_speed_bound_holds_at_its_every_point_and_is_attained() {
             "{bound} {speed}"
         );
     }
+}
+
+/// `clearance: 0` is the ideal revolute joint, so that a study can sample a clearance down
+/// to zero: the frictionless pendulum-clearance scene at clearance 0, set as a study sets
+/// it, gives the ideal pendulum's angle, pin reaction and eccentricity to 1e-9. A journal
+/// with friction has no frictionless limit, so clearance 0 with μ > 0 is refused, and a
+/// contact probe on the joint says it has become ideal.
+#[test]
+fn clearance_zero_is_the_ideal_revolute_joint() {
+    use mc_study::study::Subject;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("studies/pendulum-clearance/scene.yaml");
+    let probes = r#"
+probes:
+  - { name: angle, measure: { angle: pivot }, at: 0.5 s }
+  - { name: load, measure: { reaction: pivot }, at: 0.5 s }
+  - { name: offset, measure: { eccentricity: pivot }, at: 0.5 s }
+"#;
+    let text = std::fs::read_to_string(&path).unwrap() + probes;
+    let ideal = text.replace("type: revolute-clearance", "type: revolute");
+    let run = |text: &str, parameters: &[(&str, f64)]| {
+        let s = Subject::from_yaml(text, "pendulum.yaml").unwrap_or_else(|e| panic!("{e}"));
+        let o = s.run(parameters, &[0, 1, 2]);
+        assert_eq!(o.error, None);
+        o.outputs
+    };
+    let reference = run(&ideal, &[]);
+    let zero = run(
+        &text,
+        &[("joints.pivot.clearance", 0.0), ("joints.pivot.mu", 0.0)],
+    );
+    assert!(
+        reference[0].abs() > 0.5 && reference[1] > 5.0,
+        "{reference:?}"
+    );
+    for (a, b) in zero.iter().zip(&reference) {
+        assert!(
+            (a - b).abs() <= 1e-9 * (1.0 + b.abs()),
+            "{zero:?} vs {reference:?}"
+        );
+    }
+    assert!(zero[2].abs() < 1e-9, "eccentricity {}", zero[2]);
+    // the limit of a journal with friction is not the frictionless joint
+    let s = Subject::from_yaml(&text, "pendulum.yaml").unwrap();
+    let o = s.run(&[("joints.pivot.clearance", 0.0)], &[0]);
+    let e = o.error.unwrap();
+    assert!(e.contains("no pin friction") && e.contains("mu: 0"), "{e}");
+    // a contact probe on a joint that has become ideal says so
+    let gap = text.replace("measure: { angle: pivot }", "measure: { gap: pivot }");
+    let s = Subject::from_yaml(&gap, "pendulum.yaml").unwrap();
+    let o = s.run(
+        &[("joints.pivot.clearance", 0.0), ("joints.pivot.mu", 0.0)],
+        &[0],
+    );
+    let e = o.error.unwrap();
+    assert!(e.contains("joint `pivot` is ideal"), "{e}");
 }

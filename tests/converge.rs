@@ -187,12 +187,17 @@ fn a_peak_impact_force_is_judged_step_dependent() {
     ladder.fidelities.truncate(5);
     let conv = sweep(&study, &ladder, None, |_, _, _| {}).unwrap();
     let drifting: Vec<&str> = conv
-        .step_dependent()
+        .step_dependent(1e-2)
         .iter()
         .map(|d| conv.outputs[d.output].0.as_str())
         .collect();
-    assert_eq!(drifting, ["peak_force"], "{conv}");
-    let text = conv.to_string();
+    assert_eq!(
+        drifting,
+        ["peak_force"],
+        "{drifting:?} {}",
+        conv.describe(1e-2)
+    );
+    let text = conv.describe(1e-2);
     assert!(
         text.contains("(!) peak_force: does not converge with h"),
         "{text}"
@@ -224,4 +229,125 @@ fn converge_refuses_a_foreign_output_directory() {
         "mine"
     );
     assert!(!dir.join("converge.csv").exists());
+}
+
+/// The bouncing ball with a flagged output (the peak force of its impact) and one that is
+/// constant in the study (the first impact time does not depend on the restitution it
+/// samples), with σ from the study's results: the constant output's errors are relative
+/// to its value (its σ of round-off would make them 1e12 σ) and it stays out of the plot,
+/// the flagged one is left out of the recommendation, and both are named.
+#[test]
+fn converge_names_its_constant_and_flagged_outputs_and_still_recommends() {
+    let dir = common::scratch("converge-constant-flagged");
+    let ball = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/bouncing-ball/scene.yaml");
+    let scene = std::fs::read_to_string(ball).unwrap()
+        + "  - { name: peak_force, measure: { contact_force: floor }, reduce: max, to: second_impact_time }\n";
+    std::fs::write(dir.join("scene.yaml"), scene).unwrap();
+    std::fs::write(
+        dir.join("study.yaml"),
+        "scene: scene.yaml\nsamples: 8\nparameters:\n  - { path: contacts.floor.e, distribution: { uniform: { lower: 0.8, upper: 0.95 } } }\noutputs: [apex_after_first_bounce, peak_force, first_impact_time]\nfidelity: { h: 1 ms }\n",
+    )
+    .unwrap();
+    let study = Study::load(&dir.join("study.yaml"), None).unwrap();
+    let mut options = mc_study::study::runner::RunOptions::new(dir.join("out"));
+    options.progress = false;
+    mc_study::study::runner::run(&study, &options).unwrap();
+    let merged = mc_study::study::merge::merge(&dir.join("out"), false).unwrap();
+    let names: Vec<String> = study.outputs.iter().map(|o| o.name.clone()).collect();
+    let sigma = mc_study::study::converge::sigma_of(&merged.summary, &names).unwrap();
+    assert!(
+        sigma[0] > 0.0 && sigma[1] > 0.0 && sigma[2].is_nan(),
+        "{sigma:?}"
+    );
+    let Subject::Mechanism(scene) = &study.subject else {
+        panic!("a mechanism")
+    };
+    let mut ladder = Ladder::around(&scene.params, 1);
+    ladder.fidelities.truncate(5);
+    let conv = sweep(&study, &ladder, Some(sigma), |_, _, _| {}).unwrap();
+    assert!(conv.constant(2) && !conv.constant(0) && !conv.constant(1));
+    // relative to 0.43 s: within two steps of h ≤ 10 ms
+    for f in 0..5 {
+        let h = conv.fidelities[f].h;
+        assert!(conv.error(f, 2) < 2.0 * h / 0.4, "{}", conv.describe(0.1));
+    }
+    let left_out: Vec<usize> = conv.left_out(0.1).iter().map(|(k, _)| *k).collect();
+    assert_eq!(left_out, [1]);
+    let f = conv.recommend(0.1).expect("a rung meets 0.1 σ on the apex");
+    assert!(conv.error(f, 0) < 0.1 && conv.error(f, 1) > 0.1);
+    let text = conv.describe(0.1);
+    assert!(
+        text.contains("first_impact_time: constant to round-off"),
+        "{text}"
+    );
+    assert!(
+        text.contains("(!) peak_force: does not converge with h"),
+        "{text}"
+    );
+    let plot = mc_study::report::work_precision(&conv, 0.1);
+    let plotted: Vec<&str> = plot.series.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(plotted, ["apex_after_first_bounce", "peak_force"]);
+}
+
+/// A sweep built by hand: h = 4, 2, 1 ms and a reference. Output 0 changes by 1e-4 between
+/// the coarse rungs and by 5e-4 between the fine ones: a drift by ratio, but a drift only
+/// where that change is large against σ. A failed run shows as inf with its reason.
+#[test]
+fn a_drift_must_be_large_against_sigma_and_failures_say_why() {
+    use mc_study::integrator::IntegrationParameters;
+    use mc_study::study::converge::{Convergence, LeftOut, Run};
+    let base = Fidelity::of(&IntegrationParameters::default());
+    let fid = |h: f64| Fidelity { h, ..base.clone() };
+    let run = |y: f64| Run {
+        outputs: vec![y],
+        wall_ms: 1.0,
+        error: None,
+    };
+    let conv = |sigma: f64, failed: bool| Convergence {
+        cautions: vec![None],
+        outputs: vec![("force".into(), "N".into())],
+        fidelities: vec![fid(4e-3), fid(2e-3), fid(1e-3), fid(5e-4)],
+        sample_names: vec!["nominal".into(), "sample 0".into()],
+        runs: vec![
+            vec![run(1.0), run(1.0)],
+            vec![run(1.0001), run(1.0001)],
+            if failed {
+                vec![
+                    run(1.0001),
+                    Run {
+                        outputs: vec![f64::NAN],
+                        wall_ms: 1.0,
+                        error: Some("steps did not converge (3 of 40)\ndetail".into()),
+                    },
+                ]
+            } else {
+                vec![run(1.0001), run(1.0001)]
+            },
+            vec![run(1.0006), run(1.0006)],
+        ],
+        sigma: Some(vec![sigma]),
+    };
+    assert!(conv(1.0, false).step_dependent(0.01).is_empty());
+    assert_eq!(conv(0.01, false).step_dependent(0.01).len(), 1);
+    // a flagged output is left out even where it does not drift
+    let mut flagged = conv(1.0, false);
+    for (f, y) in [1.0, 1.0004, 1.0005, 1.0006].into_iter().enumerate() {
+        flagged.runs[f] = vec![run(y), run(y)];
+    }
+    assert!(flagged.step_dependent(1e-5).is_empty());
+    assert!(flagged.recommend(1e-5).is_none());
+    flagged.cautions[0] = Some("a peak of an impulsive force".into());
+    assert_eq!(flagged.left_out(0.01), [(0, LeftOut::Flagged)]);
+    assert!(flagged.recommend(1e-5).is_some());
+    assert!(flagged
+        .describe(0.01)
+        .contains("(!) force: left out of the recommendation: flagged at load time"));
+    let c = conv(1.0, true);
+    assert!(c.error(2, 0).is_infinite());
+    let text = c.describe(0.01);
+    assert!(
+        text.contains("failed ×1 (shown as inf; first at h=1e-3")
+            && text.contains("sample 0): steps did not converge (3 of 40)"),
+        "{text}"
+    );
 }

@@ -169,3 +169,94 @@ fn bad_probe_references_name_the_field_and_line() {
     .unwrap_err();
     assert!(e.contains("unknown reduction `median`"), "{e}");
 }
+
+/// A ball dropped from 1 m onto a plastic floor (e = 0) strikes at v = √(2 g 0.9 m) and
+/// then rests on it. The largest step force is the impact's impulse m v over one step, so
+/// it doubles when h halves; the peak of the force's mean over 20 ms is the impulse over
+/// the window plus the weight, m v / w + m g (to O(h/w)), whatever the step.
+#[test]
+fn a_quasi_static_peak_converges_where_the_step_peak_does_not() {
+    let probes = r#"
+  - name: step_peak
+    measure: { contact_force: floor }
+    reduce: max
+  - name: quasi_static_peak
+    measure: { contact_force: floor }
+    reduce: max
+    mean_over: 20 ms
+"#;
+    let (g, w) = (9.81, 0.02);
+    let v = (2.0 * g * 0.9f64).sqrt();
+    let expected = v / w + g;
+    let mut step_peaks = Vec::new();
+    for h in ["1 ms", "0.25 ms"] {
+        let text = ball(0.0, probes).replace("h: 1 ms", &format!("h: {h}"));
+        let s = Subject::from_yaml(&text, "probe-ball.yaml").unwrap();
+        let outputs = s.outputs();
+        assert!(outputs[0].caution.is_some(), "a step peak is flagged");
+        assert!(outputs[1].caution.is_none(), "a quasi-static peak is not");
+        let got = run(&text).unwrap();
+        assert!(
+            (got[1] - expected).abs() < 2e-3 * expected,
+            "h = {h}: {} N against {expected} N",
+            got[1]
+        );
+        step_peaks.push(got[0]);
+    }
+    // the step peak is m v / h: four times larger at a quarter of the step
+    assert!(
+        (step_peaks[1] / step_peaks[0] - 4.0).abs() < 0.1,
+        "{step_peaks:?}"
+    );
+}
+
+#[test]
+fn a_quasi_static_peak_needs_a_window_as_long_as_its_mean() {
+    let probes = r#"
+  - name: short
+    measure: { contact_force: floor }
+    reduce: max
+    from: 100 ms
+    to: 110 ms
+    mean_over: 20 ms
+"#;
+    let e = run(&ball(0.0, probes)).unwrap_err();
+    assert!(e.contains("shorter than `mean_over`"), "{e}");
+    let probes =
+        "  - { name: m, measure: { contact_force: floor }, reduce: mean, mean_over: 2 ms }\n";
+    let e = Subject::from_yaml(&ball(0.0, probes), "probe-ball.yaml").unwrap_err();
+    assert!(
+        e.to_string().contains("goes with `reduce: max` or `min`"),
+        "{e}"
+    );
+}
+
+/// An optional probe whose event does not happen leaves its output empty and says why;
+/// the run keeps its other outputs. Without `optional`, the same run fails.
+#[test]
+fn an_optional_probe_without_its_event_leaves_the_other_outputs() {
+    let probes = |optional: bool| {
+        format!(
+            r#"
+  - name: tenth_bounce
+    event: {{ closes: floor, occurrence: 10 }}
+    optional: {optional}
+  - name: first_bounce
+    event: {{ closes: floor }}
+"#
+        )
+    };
+    let s = Subject::from_yaml(&ball(0.5, &probes(true)), "probe-ball.yaml").unwrap();
+    let o = s.run(&[], &[0, 1]);
+    assert_eq!(o.error, None);
+    assert!(o.outputs[0].is_nan());
+    assert!((o.outputs[1] - (2.0 * 0.9 / 9.81f64).sqrt()).abs() < 1e-3);
+    assert_eq!(o.missing.len(), 1);
+    assert_eq!(o.missing[0].0, 0);
+    assert!(o.missing[0].1.contains("occurrence 10"), "{:?}", o.missing);
+    // only the selected outputs' absences are reported, by their place in the selection
+    let o = s.run(&[], &[1]);
+    assert!(o.missing.is_empty() && o.error.is_none());
+    let e = run(&ball(0.5, &probes(false))).unwrap_err();
+    assert!(e.contains("occurrence 10"), "{e}");
+}

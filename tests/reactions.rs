@@ -183,3 +183,61 @@ probes:
         fine[1]
     );
 }
+
+/// The curves `simulate --out` records, against closed forms on the bar of `PENDULUM`:
+/// released horizontal, its pivot carries m g − m a_G = m g (1 − m r² / I_O) upward at
+/// once; driven at a constant 2 rad/s, its drive's torque is the weight's moment
+/// m g r cos θ (no angular acceleration); and a value probe's column is its measure.
+#[test]
+fn the_trajectory_records_reactions_drive_efforts_and_probe_measures() {
+    use mc_study::single_run::trajectory::Trajectory;
+    let scene = Scene::from_yaml(PENDULUM, "pendulum").unwrap();
+    let mut sim = scene.simulation().unwrap();
+    let mut curves = Trajectory::for_simulation(&sim, &scene.probes);
+    for _ in 0..3 {
+        sim.step().unwrap();
+        curves.record(&sim);
+    }
+    let (m, g, r) = (1.0, 9.81, 0.5);
+    let i_o = scene.model.bodies[0].inertia[(1, 1)] + m * r * r;
+    let released = m * g * (1.0 - m * r * r / i_o);
+    let fz = curves.column("pivot.fz").unwrap();
+    assert!(
+        (fz[0] - released).abs() < 1e-3 * released,
+        "{fz:?} vs {released}"
+    );
+    assert!(curves.column("pivot.fx").unwrap()[0].abs() < 1e-3);
+    // the probe columns: `reaction_z` is the pivot's z force
+    assert_eq!(curves.column("probe.reaction_z").unwrap(), fz);
+
+    let driven = PENDULUM.replace(
+        "axis: [0, 1, 0] }",
+        "axis: [0, 1, 0], drive: { velocity: 2 rad/s } }",
+    );
+    let scene = Scene::from_yaml(&driven, "driven").unwrap();
+    let mut sim = scene.simulation().unwrap();
+    let mut curves = Trajectory::for_simulation(&sim, &scene.probes);
+    for _ in 0..5000 {
+        sim.step().unwrap();
+        curves.record(&sim);
+    }
+    let (effort, angle) = (
+        curves.column("pivot.effort").unwrap(),
+        curves.column("probe.reaction").map(|_| ()),
+    );
+    assert!(angle.is_some());
+    let t = curves.column("t").unwrap();
+    // a position drive's effort is its step mean: it stands at the step's middle
+    let h = scene.params.h;
+    for k in [1000, 2500, 4000] {
+        let theta = 2.0 * (t[k] - 0.5 * h);
+        // about +y, a bar along +x falls with +θ: the drive holds it back
+        let exact = -m * g * r * theta.cos();
+        assert!(
+            (effort[k] - exact).abs() < 1e-3 * m * g * r,
+            "t = {}: {} vs {exact}",
+            t[k],
+            effort[k]
+        );
+    }
+}

@@ -315,14 +315,27 @@ fn degenerate_statistics_are_undefined_not_numbers() {
             c.pearson
         );
         assert_eq!(c.spearman.is_finite(), defined);
+        assert_eq!(
+            c.srrc.is_finite(),
+            defined,
+            "SRRC {} ~ {}",
+            c.input,
+            c.output
+        );
     }
     let printed = m.summary.to_string();
     assert!(
         printed.contains("Cp –, Cpk – (the output is constant: no spread to rate)"),
         "{printed}"
     );
+    // shown as the value it is, with six significant digits, not as a measurement
+    let row = printed.lines().find(|l| l.starts_with("flat")).unwrap();
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(cells[3..], ["0.400000", "constant"], "{printed}");
+    assert!(!printed.contains("flat  inputs.x"), "{printed}");
+    assert!(flat.constant && !y.constant);
     let html = std::fs::read_to_string(report::build(&out).unwrap().html).unwrap();
-    assert!(!html.contains("NaN") && html.contains("– (constant: no spread)"));
+    assert!(!html.contains("NaN") && html.contains("<td>0.400000</td><td colspan=\"11\""));
     // one sample: no σ, no Cpk, no NaN on the page
     let one = scratch("report-one-sample");
     std::fs::copy(dir.join("scene.yaml"), one.join("scene.yaml")).unwrap();

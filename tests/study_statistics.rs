@@ -279,3 +279,77 @@ fn strongest_inputs_keep_their_sign_when_inputs_are_correlated() {
     let text = m.summary.to_string();
     assert!(text.contains("inputs.x2 -0.4"), "{text}");
 }
+
+/// A ball dropped from z ~ U(0.8 m, 1.6 m) for 0.45 s strikes the floor only from below
+/// z = 0.1 m + g t²/2 = 1.0933 m. Its optional impact time is empty in the other samples,
+/// which stay `ok` with their other outputs, say why in the `missing` column, and are
+/// counted apart in the summary; the impact times that exist match √(2 (z − r) / g).
+#[test]
+fn an_optional_output_is_empty_where_its_event_does_not_happen() {
+    let dir = scratch("stats-optional-output");
+    std::fs::write(
+        dir.join("scene.yaml"),
+        r#"
+name: drop
+duration: 0.45 s
+integrator: { h: 0.1 ms, scheme: moreau-jean }
+bodies:
+  - { name: ball, mass: 1 kg, shape: { sphere: { radius: 0.1 m } }, position: [0, 0, 1 m] }
+contacts:
+  - name: floor
+    body: ball
+    shape: { sphere: { radius: 0.1 m } }
+    against_shape: { plane: { normal: [0, 0, 1] } }
+probes:
+  - { name: impact_time, event: { closes: floor }, optional: true }
+  - name: final_height
+    measure: { distance: { from: { body: ground }, to: { body: ball }, axis: [0, 0, 1] } }
+"#,
+    )
+    .unwrap();
+    let s = study(
+        &dir,
+        "scene: scene.yaml\nsamples: 40\nseed: 3\nparameters:\n  - { path: bodies.ball.position.z, distribution: { uniform: { lower: 0.8 m, upper: 1.6 m } } }\n",
+    );
+    let m = run_all(&s, &dir.join("out"));
+    let t = mc_study::study::store::read(&dir.join("out/results.parquet")).unwrap();
+    let reach = 0.1 + 0.5 * 9.81 * 0.45f64.powi(2);
+    let mut hits = 0;
+    for r in &t.rows {
+        assert_eq!(r.status(), "ok");
+        assert!(r.outputs[1].is_finite());
+        let z = r.inputs[0];
+        if z < reach - 1e-3 {
+            hits += 1;
+            let exact = (2.0 * (z - 0.1) / 9.81).sqrt();
+            assert!(
+                (r.outputs[0] - exact).abs() < 1e-4,
+                "z = {z}: {}",
+                r.outputs[0]
+            );
+            assert_eq!(r.missing, None);
+        } else if z > reach + 1e-3 {
+            assert!(r.outputs[0].is_nan());
+            let why = r.missing.as_deref().unwrap();
+            assert!(
+                why.contains("impact_time") && why.contains("occurrence 1"),
+                "{why}"
+            );
+        }
+    }
+    let o = m.summary.output("impact_time").unwrap();
+    assert!(
+        hits > 5 && o.missing > 5,
+        "{hits} hits, {} missing",
+        o.missing
+    );
+    assert_eq!(o.count + o.missing, 40);
+    assert_eq!(m.summary.failed, 0);
+    assert_eq!(m.summary.output("final_height").unwrap().count, 40);
+    assert!(o.mean.is_finite() && o.sd > 0.0);
+    let text = m.summary.to_string();
+    assert!(
+        text.contains(&format!("impact_time: {} of 40 samples", o.missing)),
+        "{text}"
+    );
+}

@@ -108,7 +108,7 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         })
         .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
-    print!("{conv}");
+    print!("{}", conv.describe(target));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let csv = dir.join("converge.csv");
     std::fs::write(&csv, conv.csv()).with_context(|| format!("writing {}", csv.display()))?;
@@ -121,17 +121,26 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
         csv.display(),
         plot.display()
     );
+    let left_out = conv.left_out(target);
+    let names: Vec<&str> = left_out
+        .iter()
+        .map(|(k, _)| conv.outputs[*k].0.as_str())
+        .collect();
+    let besides = match names.len() {
+        0 => String::new(),
+        _ => format!(" (left out, see above: {})", names.join(", ")),
+    };
     match conv.recommend(target) {
         Some(f) => {
             println!(
-                "cheapest fidelity with every error below {target}{}: {:.1} ms per sample",
+                "cheapest fidelity with every error below {target}{}{besides}: {:.1} ms per sample",
                 if conv.sigma.is_some() { " σ" } else { "" },
                 conv.cost(f)
             );
             print!("{}", conv.fidelities[f].yaml());
         }
-        None if conv.step_dependent().len() == conv.outputs.len() => println!(
-            "every output depends on the step size (see above): no fidelity can be recommended"
+        None if left_out.len() == conv.outputs.len() => println!(
+            "every output is flagged or depends on the step size (see above): no fidelity can be recommended"
         ),
         None => println!(
             "no fidelity of the ladder meets the target {target} on the outputs that converge; refine h"

@@ -12,7 +12,8 @@ pub struct SimulateArgs {
     /// Scene YAML file (see studies/*/scene.yaml).
     pub scene: PathBuf,
     /// Trajectory output: .csv or .parquet (t, energy, each body's pose and twist, each
-    /// contact's gap and impulse). Nothing is written without it.
+    /// contact's gap and impulse, each joint's reaction, each drive's effort, each value
+    /// probe's measure), every `record.every` steps. Nothing is written without it.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Override the scene's duration, in seconds.

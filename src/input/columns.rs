@@ -2,10 +2,11 @@
 //! the store's own columns.
 
 /// Column names no input or output may take: those of the results' own columns.
-pub const RESERVED: [&str; 13] = [
+pub const RESERVED: [&str; 14] = [
     "sample_id",
     "status",
     "error",
+    "missing",
     "steps",
     "max_penetration",
     "max_solver_residual",

@@ -8,8 +8,10 @@ use crate::input::units::DisplayUnit;
 use crate::integrator::Simulation;
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::Drive;
-use crate::mechanics::{BodyRef, Pose};
+use crate::mechanics::model::Candidate;
+use crate::mechanics::{BodyRef, Model, Pose};
 use nalgebra::{Matrix3x6, Vector3, Vector6};
+use std::collections::VecDeque;
 use std::ops::Range;
 
 /// A scalar read off the state after a step.
@@ -63,6 +65,10 @@ pub enum Measure {
     /// A clearance joint's journal offset from the bore axis, at the bore's mid-plane (m),
     /// as `part` of the world vector.
     Eccentricity { joint: usize, part: Part },
+    /// An ideal revolute joint's eccentricity, the limit of a clearance joint's at
+    /// clearance 0: body b's anchor offset from a's axis (m), zero up to the joint's
+    /// violation.
+    IdealEccentricity { joint: usize, part: Part },
 }
 
 /// The angle gauge of a torsional spring, without the spring: zero in the written
@@ -136,9 +142,50 @@ fn add_impulse(w: &mut Vector6<f64>, g: &Matrix3x6<f64>, p: &Vector3<f64>) {
     *w += g.transpose() * p;
 }
 
+impl Transmission {
+    /// What carries ideal joint `j`'s reaction: its structural rows (a position drive's
+    /// row excluded) and its stops.
+    pub fn of_joint(model: &Model, j: usize) -> Transmission {
+        let joint = &model.joints[j];
+        let start: usize = model.joints[..j].iter().map(|j| j.row_count()).sum();
+        let structural =
+            joint.row_count() - usize::from(matches!(joint.drive, Some(Drive::Position(_))));
+        let stops = model
+            .contact_candidates()
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| matches!(c, Candidate::Limit { joint, .. } if *joint == j))
+            .map(|(i, _)| i)
+            .collect();
+        Transmission::Joint {
+            joint: j,
+            rows: start..start + structural,
+            stops,
+        }
+    }
+
+    /// What carries clearance joint `j`'s reaction: all its contact candidates.
+    pub fn of_clearance(model: &Model, j: usize) -> Transmission {
+        let name = &model.clearance_joints[j].name;
+        let candidates = model
+            .contact_candidates()
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| {
+                !matches!(c, Candidate::Limit { .. }) && model.candidate_owner(c) == *name
+            })
+            .map(|(i, _)| i)
+            .collect();
+        Transmission::Clearance {
+            joint: j,
+            candidates,
+        }
+    }
+}
+
 /// The force and the torque about `centre` (both world) that `through` transmits to its
 /// joint's body_b over the last step, divided by h.
-fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vector3<f64>) {
+pub fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vector3<f64>) {
     let m = &sim.model;
     let poses = &sim.state.poses;
     let (a, b, centre) = match through {
@@ -276,6 +323,13 @@ impl Measure {
                 let e = sim.model.clearance_joints[*joint].eccentricity(&sim.state.poses);
                 part.of(&e, &sim.state.poses)
             }
+            Measure::IdealEccentricity { joint, part } => {
+                let (j, poses) = (&sim.model.joints[*joint], &sim.state.poses);
+                let offset =
+                    world_point(poses, &(j.b, j.anchor_b)) - world_point(poses, &(j.a, j.anchor_a));
+                let axis = j.a.map_or(j.axis_a, |i| poses[i].dir(&j.axis_a));
+                part.of(&(offset - axis * axis.dot(&offset)), poses)
+            }
             Measure::Distance {
                 from,
                 to,
@@ -350,6 +404,11 @@ pub enum ProbeKind {
         at: Option<TimeRef>,
         from: Option<TimeRef>,
         to: Option<TimeRef>,
+        /// For `Reduce::Max` and `Min`: the peak of the measure's mean over a trailing
+        /// window of this length (s) instead of the peak of its step values. An impact's
+        /// impulse then counts as impulse / length, so the peak converges as h falls,
+        /// where a step's force (impulse / h) grows as 1/h.
+        mean_over: Option<f64>,
     },
 }
 
@@ -363,6 +422,9 @@ pub struct Probe {
     /// Why the value depends on the step size, if it does (a peak of an impulsive force
     /// in a rigid model), with the converged alternative; shown wherever the value is.
     pub caution: Option<String>,
+    /// When the probe has no value (its event never happens), its output is left empty and
+    /// the run keeps its other outputs, instead of failing.
+    pub optional: bool,
     pub kind: ProbeKind,
 }
 
@@ -384,6 +446,9 @@ struct Progress {
     /// `Closes` events: each candidate's gap at the previous observation and its rate over
     /// the step before it.
     approach: Vec<(f64, f64)>,
+    /// `mean_over`: the measure's integral over the window so far, (time, ∫ value dt), at
+    /// step ends back to one before the trailing averaging window.
+    integral: VecDeque<(f64, f64)>,
 }
 
 impl Progress {
@@ -394,6 +459,40 @@ impl Progress {
             Reduce::Sum => Some(self.acc),
             _ => (self.count > 0).then_some(self.acc),
         }
+    }
+}
+
+impl Progress {
+    /// Adds a step's share of the window, (start, end] with `area` = ∫ value dt, and
+    /// updates the peak (`reduce`: max or min) of the mean over the trailing `length`.
+    /// The value is constant over each step, so the integral is exact between step ends.
+    fn slide(&mut self, start: f64, end: f64, area: f64, length: f64, reduce: Reduce) {
+        let total = self.integral.back().map_or(0.0, |p| p.1) + area;
+        if self.integral.is_empty() {
+            self.integral.push_back((start, 0.0));
+        }
+        self.integral.push_back((end, total));
+        self.weight += (end - start).max(0.0);
+        if self.weight < length * (1.0 - 1e-9) {
+            return;
+        }
+        let back = end - length;
+        while self.integral.len() > 2 && self.integral[1].0 <= back {
+            self.integral.pop_front();
+        }
+        let ((ta, ia), (tb, ib)) = (self.integral[0], self.integral[1]);
+        let earlier = if tb > ta {
+            ia + (ib - ia) * ((back - ta) / (tb - ta)).clamp(0.0, 1.0)
+        } else {
+            ib
+        };
+        let mean = (total - earlier) / length;
+        self.acc = match (self.count, reduce) {
+            (0, _) => mean,
+            (_, Reduce::Min) => self.acc.min(mean),
+            _ => self.acc.max(mean),
+        };
+        self.count += 1;
     }
 }
 
@@ -521,6 +620,7 @@ impl<'a> ProbeRecorder<'a> {
                 at,
                 from,
                 to,
+                mean_over,
             } = &self.probes[i].kind
             else {
                 continue;
@@ -547,7 +647,7 @@ impl<'a> ProbeRecorder<'a> {
                 self.progress[i].previous = Some((t, v));
                 continue;
             }
-            if matches!(reduce, Reduce::Mean | Reduce::Sum) {
+            if matches!(reduce, Reduce::Mean | Reduce::Sum) || mean_over.is_some() {
                 // ∫ value dt over [from, to] / (to − from): the step just taken covers
                 // (last_t, t] (the initial state covers nothing) and counts for its overlap
                 // with the window, except that a contact force counts its whole impulse in
@@ -582,6 +682,11 @@ impl<'a> ProbeRecorder<'a> {
                 // overshoots it is timed there, and its impact would otherwise be dropped
                 if w > 0.0 || (whole_impulse && t0 <= end) {
                     let covered = if whole_impulse { end - t_prev } else { w };
+                    if let Some(length) = mean_over {
+                        let area = covered * measure.value(sim);
+                        g.slide(t_prev.max(t0), end, area, *length, *reduce);
+                        continue;
+                    }
                     // a mean weighs each step's value by its time in the window; a sum of
                     // impulses takes each step's by the share of the step in the window
                     let weight = match reduce {
@@ -652,17 +757,26 @@ impl<'a> ProbeRecorder<'a> {
                     "probe `{}`: the event happened {} time(s) by t = {t_end} s, occurrence {occurrence} was asked for",
                     p.name, g.count
                 )),
-                ProbeKind::Value { reduce, at, .. } => {
+                ProbeKind::Value {
+                    reduce,
+                    at,
+                    mean_over,
+                    ..
+                } => {
                     if *reduce == Reduce::At && at.is_none() {
                         g.value = g.previous.map(|(_, v)| v);
                     } else if *reduce != Reduce::At {
                         g.value = g.reduced(*reduce);
                     }
-                    g.value.ok_or_else(|| {
-                        format!(
+                    g.value.ok_or_else(|| match mean_over {
+                        Some(length) if g.weight > 0.0 => format!(
+                            "probe `{}`: its window ({:.6} s) is shorter than `mean_over` ({length} s)",
+                            p.name, g.weight
+                        ),
+                        _ => format!(
                             "probe `{}`: its time or window was not reached by t = {t_end} s",
                             p.name
-                        )
+                        ),
                     })
                 }
             });

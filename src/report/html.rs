@@ -37,7 +37,7 @@ pub(super) fn inline_svg(f: &FigureFile) -> Result<String> {
 pub(super) const STYLE: &str =
     "body{font-family:sans-serif;margin:2em auto;max-width:1200px;color:#111;line-height:1.4}
 h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ccc}
-table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0}
+table{border-collapse:collapse;font-size:0.85em;margin:0.5em 0;display:block;max-width:100%;overflow-x:auto}
 td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eef}
 td:first-child,th:first-child{text-align:left}
 pre{background:#f6f6f6;padding:0.6em;overflow-x:auto;font-size:0.85em}
@@ -221,6 +221,21 @@ fn inputs_section(s: &mut String, data: &Data, study_yaml: &str) {
 fn summary_section(s: &mut String, data: &Data) {
     let _ = writeln!(s, "<h2>Summary</h2><table><tr><th>output</th><th>unit</th><th>n</th><th>failed</th><th>mean</th><th>95 % CI of mean</th><th>σ</th><th>min</th><th>1 %</th><th>5 %</th><th>50 %</th><th>95 %</th><th>99 %</th><th>max</th><th>out of spec (Wilson 95 %)</th><th>Cp / Cpk</th></tr>");
     for o in &data.summary.outputs {
+        let n = match o.missing {
+            0 => o.count.to_string(),
+            m => format!("{} ({m} without a value)", o.count),
+        };
+        if o.constant {
+            let _ = writeln!(
+                s,
+                "<tr><td>{}</td><td>{}</td><td>{n}</td><td>{}</td><td>{}</td><td colspan=\"11\" style=\"text-align:left\">constant: every sample gives this value, to round-off</td></tr>",
+                esc(&o.name),
+                esc(&o.display_unit),
+                o.failed,
+                o.show(o.mean),
+            );
+            continue;
+        }
         let num = |v: f64| o.show(v);
         let q: Vec<String> = o.quantiles.iter().map(|(_, v)| num(*v)).collect();
         let spec = match &o.out_of_spec {
@@ -241,10 +256,9 @@ fn summary_section(s: &mut String, data: &Data) {
         };
         let _ = writeln!(
             s,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{spec}</td><td>{cap}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{n}</td><td>{}</td><td>{}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{spec}</td><td>{cap}</td></tr>",
             esc(&o.name),
             esc(&o.display_unit),
-            o.count,
             o.failed,
             num(o.mean),
             num(o.mean_ci95.0),

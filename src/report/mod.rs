@@ -39,6 +39,7 @@ pub fn work_precision(conv: &Convergence, target: f64) -> figures::WorkPrecision
             .outputs
             .iter()
             .enumerate()
+            .filter(|(k, _)| !conv.constant(*k))
             .map(|(k, (name, _))| {
                 let pts = (0..n).map(|f| (conv.cost(f), conv.error(f, k))).collect();
                 (name.clone(), pts)

@@ -8,11 +8,14 @@ use super::fields::{
 use super::joints::{joint_bodies, BuiltJoint};
 use super::schema::{JointSpec, Vector, Q};
 use crate::input::units::Dim;
+use crate::integrator::assembly::JointStart;
 use crate::mechanics::contact::clearance::ClearanceJoint;
+use crate::mechanics::joint::{Joint, JointKind};
 use crate::mechanics::{BodyRef, Model};
 use nalgebra::Vector3;
 
-/// Joint `i`, a revolute joint with clearance, with the journal's initial eccentricity.
+/// Joint `i`, a revolute joint with clearance, with the journal's initial eccentricity;
+/// with a clearance of 0, the ideal revolute joint it tends to (see [`ideal_limit`]).
 pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
     let f = |s: &str| format!("joints[{i}].{s}");
     let l = line(&spec.name);
@@ -41,7 +44,25 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
     }
     let e = restitution(&spec.e, &f("e"))?;
     let [bore_center, bore_axis, journal_point, journal_axis] = frames(model, spec, (a, b), &f)?;
-    let clearance = required(&spec.clearance, "clearance", Dim::LENGTH)?;
+    let clearance = non_negative(
+        given(
+            &spec.clearance,
+            l,
+            &f("clearance"),
+            "for a revolute-clearance joint",
+        )?,
+        Dim::LENGTH,
+        &f("clearance"),
+    )?;
+    if clearance == 0.0 {
+        return ideal_limit(
+            model,
+            spec,
+            i,
+            (a, b),
+            [bore_center, bore_axis, journal_point, journal_axis],
+        );
+    }
     // the flange bears on the bore's end face at any eccentricity only beyond the bore
     // radius plus the clearance
     let least = journal_radius + 2.0 * clearance;
@@ -84,6 +105,60 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
         e,
     };
     Ok(BuiltJoint::Clearance(joint, eccentricity))
+}
+
+/// A revolute-clearance joint of clearance 0: the ideal revolute joint about the bore's
+/// axis, with neither radial nor axial play. Its coordinate's zero is the written
+/// configuration, as the clearance joint's angle's is. It has no pin friction, so a
+/// friction coefficient is refused rather than dropped: the limit of a journal with
+/// friction is not the frictionless joint.
+fn ideal_limit(
+    model: &Model,
+    spec: &JointSpec,
+    i: usize,
+    (a, b): (BodyRef, BodyRef),
+    [bore_center, bore_axis, journal_point, journal_axis]: [Vector3<f64>; 4],
+) -> R<BuiltJoint> {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    let mu = spec
+        .mu
+        .as_ref()
+        .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
+    if mu > 0.0 {
+        return Err(SceneError::at(
+            spec.mu.as_ref().and_then(line),
+            f("mu"),
+            format!("a clearance of 0 makes `{}` the ideal revolute joint, which has no pin friction: set `mu: 0` to compare with the ideal joint (got mu = {mu})", spec.name.value),
+        ));
+    }
+    if let Some(q) = spec
+        .initial
+        .as_ref()
+        .and_then(|init| init.value.eccentricity.as_ref())
+    {
+        let ecc = opt_vec3(&Some(q.clone()), Dim::LENGTH, &f("initial.eccentricity"))?;
+        if ecc.norm() > 0.0 {
+            return Err(SceneError::at(
+                line(q),
+                f("initial.eccentricity"),
+                "a joint of clearance 0 has its journal on the bore axis: no eccentricity",
+            ));
+        }
+    }
+    let poses: Vec<_> = model.bodies.iter().map(|b| b.pose).collect();
+    let joint = Joint::new(
+        spec.name.value.clone(),
+        JointKind::Revolute,
+        a,
+        b,
+        bore_center,
+        journal_point,
+        bore_axis,
+        journal_axis,
+        &poses,
+        None,
+    );
+    Ok(BuiltJoint::Ideal(joint, JointStart::default()))
 }
 
 /// The bore's centre and axis in the bore body's frame and the journal's point and axis in

@@ -2,11 +2,11 @@
 //! bodies and other probes, every error with its field and line.
 
 use super::error::{line, SceneError};
-use super::fields::{body_ref, count, opt_vec3, scalar, unit_vec3};
+use super::fields::{body_ref, count, opt_vec3, positive, scalar, unit_vec3};
 use super::schema::{DistanceSpec, EventSpec, MeasureSpec, Name, ProbeSpec, TimeRef as TimeSpec};
 use crate::input::units::{Dim, DisplayUnit};
 use crate::mechanics::force::TorsionalSpring;
-use crate::mechanics::joint::{Drive, JointKind};
+use crate::mechanics::joint::JointKind;
 use crate::mechanics::model::Candidate;
 use crate::mechanics::BodyRef;
 use crate::mechanics::Model;
@@ -30,6 +30,16 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
         })
         .map(|(i, _)| i)
         .collect();
+    if ids.is_empty() && model.joints.iter().any(|j| j.name == name.value) {
+        return Err(SceneError::at(
+            line(name),
+            field,
+            format!(
+                "joint `{}` is ideal (a revolute-clearance joint of clearance 0 is one): it has no contact to measure; its `reaction` gives what it carries",
+                name.value
+            ),
+        ));
+    }
     if ids.is_empty() {
         let known: Vec<&str> = model
             .contacts
@@ -210,20 +220,29 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
         return drive_effort_measure(model, n, field);
     }
     let n = s.eccentricity.as_ref().expect("one measure given");
-    let JointName::Clearance(j) = joint(model, n, &f("eccentricity"))? else {
-        return Err(SceneError::at(
+    let dim = |angle: bool| if angle { Dim::NONE } else { Dim::LENGTH };
+    match joint(model, n, &f("eccentricity"))? {
+        JointName::Clearance(j) => {
+            let c = &model.clearance_joints[j];
+            let (part, angle) = part(model, s, Some((c.bore_body, c.bore_axis)), field)?;
+            Ok((Measure::Eccentricity { joint: j, part }, dim(angle)))
+        }
+        // a clearance joint at clearance 0 is an ideal revolute joint: its journal stays on
+        // the axis
+        JointName::Ideal(j) if model.joints[j].kind == JointKind::Revolute => {
+            let ideal = &model.joints[j];
+            let (part, angle) = part(model, s, Some((ideal.a, ideal.axis_a)), field)?;
+            Ok((Measure::IdealEccentricity { joint: j, part }, dim(angle)))
+        }
+        JointName::Ideal(_) => Err(SceneError::at(
             line(n),
             f("eccentricity"),
             format!(
-                "joint `{}` is ideal: only a revolute-clearance joint has an eccentricity",
+                "joint `{}` is not revolute: only a revolute joint, with or without clearance, has an eccentricity",
                 n.value
             ),
-        ));
-    };
-    let c = &model.clearance_joints[j];
-    let (part, angle) = part(model, s, Some((c.bore_body, c.bore_axis)), field)?;
-    let dim = if angle { Dim::NONE } else { Dim::LENGTH };
-    Ok((Measure::Eccentricity { joint: j, part }, dim))
+        )),
+    }
 }
 
 /// Refuses a measure that names no quantity or more than one, or that gives a vector
@@ -419,35 +438,14 @@ fn reaction_measure(model: &Model, s: &MeasureSpec, n: &Name, field: &str) -> R<
     let (through, about) = match joint(model, n, &f(key))? {
         JointName::Ideal(j) => {
             let joint = &model.joints[j];
-            let start: usize = model.joints[..j].iter().map(|j| j.row_count()).sum();
-            let structural =
-                joint.row_count() - usize::from(matches!(joint.drive, Some(Drive::Position(_))));
-            let stops = model
-                .contact_candidates()
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| matches!(c, Candidate::Limit { joint, .. } if *joint == j))
-                .map(|(i, _)| i)
-                .collect();
             let about =
                 matches!(joint.kind, JointKind::Revolute).then_some((joint.a, joint.axis_a));
-            (
-                Transmission::Joint {
-                    joint: j,
-                    rows: start..start + structural,
-                    stops,
-                },
-                about,
-            )
+            (Transmission::of_joint(model, j), about)
         }
         JointName::Clearance(j) => {
             let c = &model.clearance_joints[j];
-            let candidates = contact(model, n, &f(key))?;
             (
-                Transmission::Clearance {
-                    joint: j,
-                    candidates,
-                },
+                Transmission::of_clearance(model, j),
                 Some((c.bore_body, c.bore_axis)),
             )
         }
@@ -502,7 +500,13 @@ fn drive_effort_measure(model: &Model, n: &Name, field: &str) -> R<(Measure, Dim
 /// 1/h. Forces are impulsive wherever the scene has unilateral contacts. The minimum of a
 /// contact's normal force is exempt: that force is never negative, so an impulse can only
 /// raise it, and its minimum is the margin of a contact that must hold (a cam follower).
-fn caution(model: &Model, measure: &Measure, reduce: Reduce, field: &str) -> Option<String> {
+fn caution(
+    model: &Model,
+    measure: &Measure,
+    reduce: Reduce,
+    averaged: bool,
+    field: &str,
+) -> Option<String> {
     let unilateral = !model.contacts.is_empty()
         || !model.clearance_joints.is_empty()
         || model.joints.iter().any(|j| j.limits.is_some());
@@ -512,9 +516,9 @@ fn caution(model: &Model, measure: &Measure, reduce: Reduce, field: &str) -> Opt
     );
     let normal_force_minimum = matches!(measure, Measure::ContactForce(_)) && reduce == Reduce::Min;
     let peak = matches!(reduce, Reduce::Max | Reduce::Min) && !normal_force_minimum;
-    (unilateral && force && peak).then(|| {
+    (unilateral && force && peak && !averaged).then(|| {
         format!(
-            "`{field}` takes the {} of a force in a mechanism with impacts: a rigid impact is an impulse, so the peak force grows as 1/h and this value depends on the step size. Converged alternatives: the largest impact impulse (`impulse:` with `reduce: max`) or the force's mean over a window (`reduce: mean`)",
+            "`{field}` takes the {} of a force in a mechanism with impacts: a rigid impact is an impulse, so the peak force grows as 1/h and this value depends on the step size. Converged alternatives: the quasi-static peak, the peak of the force's mean over a fixed time (`mean_over: 1 ms` beside `reduce`), the largest impact impulse (`impulse:` with `reduce: max`), or the force's mean over a window (`reduce: mean`)",
             if reduce == Reduce::Max { "maximum" } else { "minimum" }
         )
     })
@@ -644,8 +648,12 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
             (None, Some(m)) => {
                 let (measure, dim) = measure(model, m, &f("measure"))?;
                 let (kind, reduce) = value_probe(specs, p, measure, &f)?;
-                if let ProbeKind::Value { measure, .. } = &kind {
-                    caution = self::caution(model, measure, reduce, &p.name.value);
+                if let ProbeKind::Value {
+                    measure, mean_over, ..
+                } = &kind
+                {
+                    let averaged = mean_over.is_some();
+                    caution = self::caution(model, measure, reduce, averaged, &p.name.value);
                 }
                 (kind, dim)
             }
@@ -669,6 +677,7 @@ pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
             unit: dim.si_unit(),
             display,
             caution,
+            optional: p.optional,
             kind,
         });
     }
@@ -734,12 +743,27 @@ fn value_probe(
             "`at` goes with `reduce: at`",
         ));
     }
+    let mean_over = p
+        .mean_over
+        .as_ref()
+        .map(|q| {
+            if !matches!(reduce, Reduce::Max | Reduce::Min) {
+                return Err(SceneError::at(
+                    line(q),
+                    f("mean_over"),
+                    "`mean_over` takes the peak of a running mean: it goes with `reduce: max` or `min`",
+                ));
+            }
+            positive(q, Dim::TIME, &f("mean_over"))
+        })
+        .transpose()?;
     let kind = ProbeKind::Value {
         measure,
         reduce,
         at,
         from,
         to,
+        mean_over,
     };
     Ok((kind, reduce))
 }

@@ -393,11 +393,18 @@ pub struct ProbeSpec {
     pub name: Name,
     pub event: Option<Spanned<EventSpec>>,
     pub measure: Option<Spanned<MeasureSpec>>,
-    /// `at` (default), `max`, `min` or `mean`.
+    /// `at` (default), `max`, `min`, `mean` or `sum`.
     pub reduce: Option<Name>,
     pub at: Option<Spanned<TimeRef>>,
     pub from: Option<Spanned<TimeRef>>,
     pub to: Option<Spanned<TimeRef>>,
+    /// With `reduce: max` or `min`: the peak of the measure's mean over a trailing window
+    /// of this duration (a quasi-static peak, which converges as the step falls).
+    pub mean_over: Option<Q>,
+    /// The output may have no value (its event may not happen): a run without it keeps its
+    /// other outputs.
+    #[serde(default)]
+    pub optional: bool,
     /// The unit the summary and the report show the value in (default: chosen from the
     /// values), e.g. `mm`, `N*mm`, `deg`.
     pub unit: Option<Name>,

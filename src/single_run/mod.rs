@@ -146,7 +146,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
     };
     take_snapshots(&sim);
     let recording = options.trajectory.is_some();
-    let mut traj = Trajectory::for_simulation(&sim);
+    let mut traj = Trajectory::for_simulation(&sim, &scene.probes);
     traj.record(&sim);
     let start = Instant::now();
     // the trajectory and the drawing follow the main (fine) branch; the work counts both

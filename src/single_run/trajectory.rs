@@ -1,8 +1,11 @@
 //! Recorded trajectories: one row per recorded step with time, energy, every moving body's
-//! pose and twist, and every contact candidate's gap and impulse; written as CSV or Parquet.
+//! pose and twist, every contact candidate's gap and impulse, every joint's reaction, every
+//! drive's effort and every value probe's measure; written as CSV or Parquet. These are the
+//! curves a test bench records: force against displacement is two of its columns.
 
 use crate::integrator::Simulation;
 use crate::mechanics::Motion;
+use crate::probe::{reaction, Measure, Probe, ProbeKind, Transmission};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
 use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
@@ -17,7 +20,21 @@ use std::sync::Arc;
 pub struct Trajectory {
     pub columns: Vec<String>,
     pub data: Vec<Vec<f64>>,
+    /// What the columns after the contacts' read: joints' reactions, then measures.
+    readings: Vec<Reading>,
 }
+
+/// A group of columns read off the simulation after a step.
+#[derive(Clone, Debug, PartialEq)]
+enum Reading {
+    /// A joint's reaction on its body b: world force (N), then world torque about the
+    /// joint's centre (N·m), each the last step's impulse / h.
+    Reaction(Transmission),
+    /// One number: a drive's effort or a value probe's measure.
+    Measure(Measure),
+}
+
+const REACTION_FIELDS: [&str; 6] = ["fx", "fy", "fz", "tx", "ty", "tz"];
 
 const BODY_FIELDS: [&str; 13] = [
     "x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz",
@@ -25,8 +42,9 @@ const BODY_FIELDS: [&str; 13] = [
 const CONTACT_FIELDS: [&str; 4] = ["gap", "pn", "pt1", "pt2"];
 
 impl Trajectory {
-    /// An empty trajectory with the columns of `sim`'s model.
-    pub fn for_simulation(sim: &Simulation) -> Self {
+    /// An empty trajectory with the columns of `sim`'s model and of the value `probes`'
+    /// measures (`probe.<name>`).
+    pub fn for_simulation(sim: &Simulation, probes: &[Probe]) -> Self {
         let m = &sim.model;
         let mut columns = vec!["t".to_string(), "energy".to_string()];
         for b in m.bodies.iter().filter(|b| b.motion != Motion::Fixed) {
@@ -36,8 +54,39 @@ impl Trajectory {
             let base = m.candidate_name(c);
             columns.extend(CONTACT_FIELDS.iter().map(|f| format!("{base}.{f}")));
         }
+        let mut readings = Vec::new();
+        let joints = (0..m.joints.len()).map(|j| (&m.joints[j].name, Transmission::of_joint(m, j)));
+        let clearance = (0..m.clearance_joints.len()).map(|j| {
+            (
+                &m.clearance_joints[j].name,
+                Transmission::of_clearance(m, j),
+            )
+        });
+        for (name, through) in joints.chain(clearance) {
+            columns.extend(REACTION_FIELDS.iter().map(|f| format!("{name}.{f}")));
+            readings.push(Reading::Reaction(through));
+        }
+        for (j, joint) in m
+            .joints
+            .iter()
+            .enumerate()
+            .filter(|(_, j)| j.drive.is_some())
+        {
+            columns.push(format!("{}.effort", joint.name));
+            readings.push(Reading::Measure(Measure::DriveEffort(j)));
+        }
+        for p in probes {
+            if let ProbeKind::Value { measure, .. } = &p.kind {
+                columns.push(format!("probe.{}", p.name));
+                readings.push(Reading::Measure(measure.clone()));
+            }
+        }
         let data = vec![Vec::new(); columns.len()];
-        Trajectory { columns, data }
+        Trajectory {
+            columns,
+            data,
+            readings,
+        }
     }
 
     pub fn rows(&self) -> usize {
@@ -61,6 +110,15 @@ impl Trajectory {
         }
         for (cp, imp) in sim.contact_points().iter().zip(sim.impulses()) {
             row.extend_from_slice(&[cp.gap(), imp.x, imp.y, imp.z]);
+        }
+        for r in &self.readings {
+            match r {
+                Reading::Reaction(through) => {
+                    let (f, t) = reaction(sim, through);
+                    row.extend_from_slice(&[f.x, f.y, f.z, t.x, t.y, t.z]);
+                }
+                Reading::Measure(m) => row.push(m.value(sim)),
+            }
         }
         for (col, x) in self.data.iter_mut().zip(row) {
             col.push(x);

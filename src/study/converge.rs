@@ -14,7 +14,7 @@ use crate::scene::schema::{IntegratorSpec, ToleranceSpec};
 use crate::scene::Tuning;
 use rayon::prelude::*;
 use serde_saphyr::{Location, Spanned};
-use std::fmt::{self, Write};
+use std::fmt::Write;
 
 /// A setting in exponent form without the round-off of the ladder's products (1e-4, not
 /// 9.999999999999999e-5).
@@ -225,13 +225,22 @@ impl Ladder {
     }
 }
 
-/// Each output's Monte-Carlo σ from a summary (`None` unless every output has a positive
-/// one).
+/// Each output's Monte-Carlo σ from a summary: NaN for an output that is constant to
+/// round-off (its errors are then relative to its value); `None` unless the summary has
+/// every output and at least one with a spread.
 pub fn sigma_of(summary: &Summary, outputs: &[String]) -> Option<Vec<f64>> {
-    outputs
+    let sigma: Vec<f64> = outputs
         .iter()
-        .map(|o| summary.output(o).map(|s| s.sd).filter(|s| *s > 0.0))
-        .collect()
+        .map(|o| {
+            let s = summary.output(o)?;
+            Some(if s.constant || !(s.sd > 0.0) {
+                f64::NAN
+            } else {
+                s.sd
+            })
+        })
+        .collect::<Option<_>>()?;
+    sigma.iter().any(|s| s.is_finite()).then_some(sigma)
 }
 
 /// An output whose values drift apart as h falls: its change between the two coarsest steps
@@ -261,8 +270,19 @@ pub struct Convergence {
     pub fidelities: Vec<Fidelity>,
     pub sample_names: Vec<String>,
     pub runs: Vec<Vec<Run>>,
-    /// Monte-Carlo σ per output, if known.
+    /// Monte-Carlo σ per output, if known (NaN for an output without a spread).
     pub sigma: Option<Vec<f64>>,
+    /// Why an output depends on the step size, where the scene says so at load time.
+    pub cautions: Vec<Option<String>>,
+}
+
+/// Why an output is left out of the recommendation.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LeftOut {
+    /// Its probe is flagged at load time (the peak of an impulsive force).
+    Flagged,
+    /// Its values drift apart as h falls.
+    Drifts(Drift),
 }
 
 /// Runs the ladder, every (fidelity, sample) run in parallel on the current rayon pool
@@ -336,6 +356,7 @@ pub fn sweep(
         sample_names: samples.into_iter().map(|(n, _)| n).collect(),
         runs,
         sigma,
+        cautions: study.outputs.iter().map(|o| o.caution.clone()).collect(),
     })
 }
 
@@ -344,8 +365,32 @@ impl Convergence {
         self.runs.last().expect("the reference row")
     }
 
+    /// Whether output k is one value to round-off: in the study's results (no σ), or in
+    /// every run of the sweep. Its errors are relative to its value, whatever σ says.
+    pub fn constant(&self, k: usize) -> bool {
+        let no_spread = self.sigma.as_ref().is_some_and(|s| s[k].is_nan());
+        let values: Vec<f64> = self.runs.iter().flatten().map(|r| r.outputs[k]).collect();
+        no_spread || crate::study::statistics::is_constant(&values)
+    }
+
+    /// What an error of output k is measured in: its Monte-Carlo σ when known and the
+    /// output has a spread, else |reference| (or 1 where that is zero).
+    fn scale(&self, k: usize, reference: f64) -> f64 {
+        match &self.sigma {
+            Some(s) if !self.constant(k) => s[k],
+            _ if reference != 0.0 => reference.abs(),
+            _ => 1.0,
+        }
+    }
+
+    /// Whether the errors of output k are in units of its Monte-Carlo σ.
+    pub fn in_sigma(&self, k: usize) -> bool {
+        self.sigma.is_some() && !self.constant(k)
+    }
+
     /// Largest error of output k at fidelity f over the samples: in units of the
     /// Monte-Carlo σ when known, else relative to |reference|. Infinite if a run failed.
+    /// An optional output empty in both runs agrees; empty in one of them, it does not.
     pub fn error(&self, f: usize, k: usize) -> f64 {
         self.runs[f]
             .iter()
@@ -355,13 +400,31 @@ impl Convergence {
                 if r.error.is_some() || reference.error.is_some() {
                     return f64::INFINITY;
                 }
-                let scale = match &self.sigma {
-                    Some(s) => s[k],
-                    None => y0.abs(),
-                };
-                (y - y0).abs() / scale
+                match (y.is_nan(), y0.is_nan()) {
+                    (true, true) => return 0.0,
+                    (false, false) => {}
+                    _ => return f64::INFINITY,
+                }
+                (y - y0).abs() / self.scale(k, y0)
             })
             .fold(0.0, f64::max)
+    }
+
+    /// The outputs left out of the recommendation at `target`, and why.
+    pub fn left_out(&self, target: f64) -> Vec<(usize, LeftOut)> {
+        // a measured drift says more than the flag
+        let mut out: Vec<(usize, LeftOut)> = self
+            .step_dependent(target)
+            .into_iter()
+            .map(|d| (d.output, LeftOut::Drifts(d)))
+            .collect();
+        for k in 0..self.outputs.len() {
+            if self.cautions[k].is_some() && !out.iter().any(|(j, _)| *j == k) {
+                out.push((k, LeftOut::Flagged));
+            }
+        }
+        out.sort_by_key(|(k, _)| *k);
+        out
     }
 
     /// Median wall time per sample (ms) at fidelity f.
@@ -372,16 +435,38 @@ impl Convergence {
     }
 
     /// The cheapest fidelity (not the reference) whose error on every output that
-    /// converges (not [`Convergence::step_dependent`]) is below `target`.
+    /// means something at any step (not [`Convergence::left_out`]) is below `target`.
     pub fn recommend(&self, target: f64) -> Option<usize> {
-        let drifting: Vec<usize> = self.step_dependent().iter().map(|d| d.output).collect();
+        let left_out: Vec<usize> = self.left_out(target).iter().map(|(k, _)| *k).collect();
         (0..self.fidelities.len() - 1)
             .filter(|&f| {
                 (0..self.outputs.len())
-                    .filter(|k| !drifting.contains(k))
+                    .filter(|k| !left_out.contains(k))
                     .all(|k| self.error(f, k) < target)
             })
             .min_by(|&a, &b| self.cost(a).total_cmp(&self.cost(b)))
+    }
+
+    /// The failed runs' reasons (first line), each with its count and its first rung
+    /// and sample, most frequent first.
+    pub fn failures(&self) -> Vec<(String, usize, String)> {
+        let mut out: Vec<(String, usize, String)> = Vec::new();
+        for (f, runs) in self.runs.iter().enumerate() {
+            for (j, r) in runs.iter().enumerate() {
+                let Some(e) = &r.error else { continue };
+                let reason = e.lines().next().unwrap_or("").to_string();
+                match out.iter_mut().find(|(m, _, _)| *m == reason) {
+                    Some(x) => x.1 += 1,
+                    None => out.push((
+                        reason,
+                        1,
+                        format!("{}, {}", self.fidelities[f].label(), self.sample_names[j]),
+                    )),
+                }
+            }
+        }
+        out.sort_by_key(|x| std::cmp::Reverse(x.1));
+        out
     }
 
     /// The rungs that differ from each other in h only, and the reference, coarse to fine:
@@ -407,10 +492,11 @@ impl Convergence {
 
     /// The outputs whose values move further apart as h falls: along the step ladder, the
     /// change between the two finest steps is more than twice the change between the two
-    /// coarsest (largest over the samples, and beyond round-off). Such an output depends on
-    /// the step size itself: the peak of an impulsive force (∝ 1/h in a rigid model) or a
-    /// chaotic quantity. Refining h does not converge it.
-    pub fn step_dependent(&self) -> Vec<Drift> {
+    /// coarsest (largest over the samples) and larger than `target` (in σ, or relative):
+    /// a change below the accuracy asked for is no drift, whatever the ratio. Such an
+    /// output depends on the step size itself: the peak of an impulsive force (∝ 1/h in a
+    /// rigid model) or a chaotic quantity. Refining h does not converge it.
+    pub fn step_dependent(&self, target: f64) -> Vec<Drift> {
         let ladder = self.step_ladder();
         if ladder.len() < 3 {
             return Vec::new();
@@ -427,15 +513,13 @@ impl Convergence {
             .filter_map(|k| {
                 let coarse = change(ladder[0], ladder[1], k);
                 let fine = change(ladder[last - 1], ladder[last], k);
-                let scale = match &self.sigma {
-                    Some(s) => s[k],
-                    None => self
-                        .reference()
-                        .iter()
-                        .map(|r| r.outputs[k].abs())
-                        .fold(0.0, f64::max),
-                };
-                (fine > 2.0 * coarse && fine > 1e-6 * scale).then_some(Drift {
+                let size = self
+                    .reference()
+                    .iter()
+                    .map(|r| r.outputs[k].abs())
+                    .fold(0.0, f64::max);
+                let scale = self.scale(k, size);
+                (fine > 2.0 * coarse && fine > target * scale).then_some(Drift {
                     output: k,
                     coarse,
                     fine,
@@ -478,7 +562,12 @@ impl Convergence {
                 if f + 1 == self.fidelities.len() {
                     let _ = write!(s, " {:>12}", "ref");
                 } else {
-                    let _ = write!(s, " {:>12.2e}", self.error(f, k));
+                    let mark = if self.in_sigma(k) || self.sigma.is_none() {
+                        ""
+                    } else {
+                        "r"
+                    };
+                    let _ = write!(s, " {:>12}", format!("{:.2e}{mark}", self.error(f, k)));
                 }
             }
             s.push('\n');
@@ -528,19 +617,38 @@ fn short(name: &str) -> String {
     name.chars().take(12).collect()
 }
 
-/// The table, then a verdict for each output that depends on the step size.
-impl fmt::Display for Convergence {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.table())?;
-        for d in self.step_dependent() {
-            let (name, unit) = &self.outputs[d.output];
-            let unit = if unit == "1" { "" } else { unit.as_str() };
-            writeln!(
-                f,
-                "(!) {name}: does not converge with h: it changes by {:.3e} {unit} from h = {:e} to {:e} s, and by {:.3e} {unit} from h = {:e} to {:e} s. It depends on the step size itself (the peak of an impulsive force grows as 1/h in a rigid model; a chaotic quantity changes at random): refining h makes it no better. Measure a converged quantity instead (an impact impulse, a window mean), or report its statistics over a study. It is left out of the recommendation.",
-                d.coarse, d.from.0, d.from.1, d.fine, d.to.0, d.to.1
-            )?;
+impl Convergence {
+    /// The table, then the constant outputs, the failed runs with their reasons, and a
+    /// verdict for each output left out of the recommendation at `target`.
+    pub fn describe(&self, target: f64) -> String {
+        let mut s = self.table();
+        for k in (0..self.outputs.len()).filter(|&k| self.constant(k)) {
+            let (name, _) = &self.outputs[k];
+            let r = if self.sigma.is_some() { " (r)" } else { "" };
+            let _ = writeln!(
+                s,
+                "{name}: constant to round-off; its errors{r} are relative to its value, not to a spread, and it stays out of the plot"
+            );
         }
-        Ok(())
+        for (reason, n, first) in self.failures() {
+            let _ = writeln!(s, "failed ×{n} (shown as inf; first at {first}): {reason}");
+        }
+        for (k, why) in self.left_out(target) {
+            let (name, unit) = &self.outputs[k];
+            let unit = if unit == "1" { "" } else { unit.as_str() };
+            let _ = match why {
+                LeftOut::Flagged => writeln!(
+                    s,
+                    "(!) {name}: left out of the recommendation: flagged at load time, though it did not drift on this ladder: {}",
+                    self.cautions[k].as_deref().unwrap_or("")
+                ),
+                LeftOut::Drifts(d) => writeln!(
+                    s,
+                    "(!) {name}: does not converge with h: it changes by {:.3e} {unit} from h = {:e} to {:e} s, and by {:.3e} {unit} from h = {:e} to {:e} s, beyond the target. It depends on the step size itself (the peak of an impulsive force grows as 1/h in a rigid model; a chaotic quantity, or a force held by static friction, whose value depends on how the mechanism came to rest, changes at random): refining h makes it no better. Measure a converged quantity instead (an impact impulse, a window mean, a quasi-static peak), or report its statistics over a study. It is left out of the recommendation.",
+                    d.coarse, d.from.0, d.from.1, d.fine, d.to.0, d.to.1
+                ),
+            };
+        }
+        s
     }
 }

@@ -91,6 +91,9 @@ pub struct Output {
     /// Why the value depends on the step size, for an output that is not a converged
     /// quantity (the peak of an impulsive force); `None` otherwise.
     pub caution: Option<String>,
+    /// The output may have no value in a run that otherwise went through (an optional
+    /// probe whose event did not happen).
+    pub optional: bool,
 }
 
 /// A validated study, ready to run.

@@ -215,6 +215,7 @@ impl Study {
                 .map(|o| (o.name.clone(), o.unit.clone()))
                 .collect(),
             tagged: self.reliability.is_some() || self.search.is_some(),
+            optional: self.outputs.iter().any(|o| o.optional),
         }
     }
 
@@ -270,6 +271,10 @@ impl Study {
             inputs,
             outputs: o.outputs,
             diagnostics: o.diagnostics,
+            missing: (o.error.is_none() && !o.missing.is_empty()).then(|| {
+                let why: Vec<&str> = o.missing.iter().map(|(_, w)| w.as_str()).collect();
+                why.join("; ")
+            }),
             error: o.error,
             suspect: o.suspect,
             tag: None,

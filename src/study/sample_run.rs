@@ -33,6 +33,8 @@ pub struct Outcome {
     pub diagnostics: Diagnostics,
     pub error: Option<String>,
     pub suspect: Option<String>,
+    /// The optional outputs without a value (NaN there), each by index with why.
+    pub missing: Vec<(usize, String)>,
 }
 
 /// Why a run that finished is not to be trusted as it stands, if it is not: steps that did
@@ -95,6 +97,7 @@ impl Subject {
             upper: None,
             display: None,
             caution: None,
+            optional: false,
         };
         match self {
             Subject::Mechanism(s) => s
@@ -104,6 +107,7 @@ impl Subject {
                 .map(|(i, p)| Output {
                     display: p.display.clone(),
                     caution: p.caution.clone(),
+                    optional: p.optional,
                     ..output(i, &p.name, &p.unit)
                 })
                 .collect(),
@@ -152,6 +156,10 @@ impl Subject {
                 }
             })
             .collect();
+        o.missing = std::mem::take(&mut o.missing)
+            .into_iter()
+            .filter_map(|(k, why)| Some((selected.iter().position(|&s| s == k)?, why)))
+            .collect();
         o
     }
 
@@ -176,6 +184,7 @@ impl Subject {
                     diagnostics: Diagnostics::default(),
                     error,
                     suspect: None,
+                    missing: Vec::new(),
                 }
             }
             Subject::Mechanism(scene) => {
@@ -200,9 +209,22 @@ impl Subject {
                     wall_ms: 0.0,
                 };
                 let suspect = suspicion(&st, &scene.params, initial_overlap.as_ref());
+                let mut missing = Vec::new();
                 let values: Result<Vec<f64>, String> = match run.error {
                     Some(e) => Err(e),
-                    None => run.values.into_iter().collect(),
+                    None => run
+                        .values
+                        .into_iter()
+                        .zip(&scene.probes)
+                        .enumerate()
+                        .map(|(k, (v, probe))| match v {
+                            Err(why) if probe.optional => {
+                                missing.push((k, why));
+                                Ok(f64::NAN)
+                            }
+                            v => v,
+                        })
+                        .collect(),
                 };
                 match (values, suspect) {
                     (Ok(outputs), suspect) => Outcome {
@@ -210,6 +232,7 @@ impl Subject {
                         diagnostics,
                         error: None,
                         suspect,
+                        missing,
                     },
                     // the fault explains a failure better than its symptom does
                     (Err(e), Some(why)) => {
@@ -229,5 +252,6 @@ fn failed(diagnostics: Diagnostics, error: String) -> Outcome {
         diagnostics,
         error: Some(error),
         suspect: None,
+        missing: Vec::new(),
     }
 }

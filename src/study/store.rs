@@ -28,6 +28,9 @@ pub struct Row {
     pub error: Option<String>,
     /// Why the values of a run that went through are suspect (see `Outcome`).
     pub suspect: Option<String>,
+    /// Why optional outputs of a run that went through have no value (the `missing`
+    /// column).
+    pub missing: Option<String>,
     /// Where the run sits in an adaptive (rare-event) study; `None` in a plain one.
     pub tag: Option<Tag>,
 }
@@ -66,6 +69,9 @@ pub struct Columns {
     /// The rows carry a [`Tag`]: the columns `batch`, `stage`, `level`, `chain`, `margin`.
     #[serde(default)]
     pub tagged: bool,
+    /// Some outputs are optional: the rows carry the `missing` column.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub optional: bool,
 }
 
 /// Diagnostic columns: (name, unit, description).
@@ -92,6 +98,12 @@ pub const DIAGNOSTICS: [(&str, &str, &str); 5] = [
         "wall time of the sample (the only column that differs between identical runs)",
     ),
 ];
+
+/// The column that says why optional outputs have no value: (name, description).
+pub const MISSING: (&str, &str) = (
+    "missing",
+    "why the optional outputs left empty in a run that went through have no value",
+);
 
 /// The columns of an adaptive study's rows: (name, description).
 pub const TAGS: [(&str, &str); 5] = [
@@ -145,6 +157,9 @@ impl Columns {
         }
         fields.push(field("status", DataType::Utf8, false, "status", ""));
         fields.push(field("error", DataType::Utf8, true, "status", ""));
+        if self.optional {
+            fields.push(field(MISSING.0, DataType::Utf8, true, "missing", ""));
+        }
         if self.tagged {
             fields.push(field("batch", DataType::UInt64, false, "tag", ""));
             fields.push(field("stage", DataType::Utf8, false, "tag", ""));
@@ -187,6 +202,13 @@ impl Columns {
                 .map(|r| r.error.as_deref().or(r.suspect.as_deref()))
                 .collect::<StringArray>(),
         ));
+        if self.optional {
+            cols.push(Arc::new(
+                rows.iter()
+                    .map(|r| r.missing.as_deref())
+                    .collect::<StringArray>(),
+            ));
+        }
         if self.tagged {
             let tag = |r: &Row| -> Result<Tag> {
                 r.tag
@@ -335,6 +357,7 @@ pub fn read(path: &Path) -> Result<Table> {
         inputs: pick("input"),
         outputs: pick("output"),
         tagged: !pick("tag").is_empty(),
+        optional: !pick("missing").is_empty(),
     };
     let mut rows = Vec::new();
     for batch in builder.build()? {
@@ -357,6 +380,10 @@ pub fn read(path: &Path) -> Result<Table> {
         let wall = column::<Float64Array>(&batch, "wall_ms")?;
         let status = column::<StringArray>(&batch, "status")?;
         let error = column::<StringArray>(&batch, "error")?;
+        let missing = match columns.optional {
+            true => Some(column::<StringArray>(&batch, MISSING.0)?),
+            false => None,
+        };
         let tags = if columns.tagged {
             Some((
                 column::<UInt64Array>(&batch, "batch")?,
@@ -395,6 +422,9 @@ pub fn read(path: &Path) -> Result<Table> {
                 },
                 error: err,
                 suspect,
+                missing: missing
+                    .filter(|m| !m.is_null(i))
+                    .map(|m| m.value(i).to_string()),
                 tag: tags.map(|(b, s, l, c, m)| Tag {
                     batch: b.value(i),
                     stage: s.value(i).to_string(),
@@ -421,7 +451,7 @@ mod tests {
     /// Every column the store writes of its own is reserved for it, and nothing else is.
     #[test]
     fn the_reserved_names_are_the_stores_own_columns() {
-        let mut own: Vec<&str> = ["sample_id", "status", "error"].to_vec();
+        let mut own: Vec<&str> = ["sample_id", "status", "error", MISSING.0].to_vec();
         own.extend(DIAGNOSTICS.iter().map(|d| d.0));
         own.extend(TAGS.iter().map(|t| t.0));
         let mut reserved = RESERVED.to_vec();

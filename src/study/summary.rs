@@ -48,9 +48,16 @@ pub struct OutputSummary {
     pub display_factor: f64,
     /// Why the value depends on the step size, if it does.
     pub caution: Option<String>,
-    /// Successful samples.
+    /// Successful samples with a value.
     pub count: u64,
     pub failed: u64,
+    /// Samples that went through without a value for this (optional) output.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub missing: u64,
+    /// The values are one value up to round-off (range ≤ 1e-9 of their magnitude): the
+    /// output is shown as that value, without a spread.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub constant: bool,
     #[serde(deserialize_with = "nan")]
     pub mean: f64,
     #[serde(deserialize_with = "nan_pair")]
@@ -94,7 +101,7 @@ impl OutputSummary {
     pub fn decimals(&self) -> usize {
         let d = self.display();
         let (sd, mean) = (d.of(self.sd).abs(), d.of(self.mean).abs());
-        let digits = if sd.is_finite() && sd > 0.0 {
+        let digits = if sd.is_finite() && sd > 0.0 && !self.constant {
             1.0 - sd.log10().floor()
         } else if mean.is_finite() && mean > 0.0 {
             5.0 - mean.log10().floor()
@@ -104,9 +111,14 @@ impl OutputSummary {
         digits.clamp(0.0, 12.0) as usize
     }
 
-    /// An SI value in the display unit with the output's decimals ("–" if undefined).
+    /// An SI value in the display unit with the output's decimals ("–" if undefined); a
+    /// constant's value with six significant digits.
     pub fn show(&self, si: f64) -> String {
-        fixed(self.display().of(si), self.decimals())
+        let v = self.display().of(si);
+        if self.constant && v != 0.0 && v.abs() < 1e-4 {
+            return format!("{v:.5e}");
+        }
+        fixed(v, self.decimals())
     }
 }
 
@@ -180,6 +192,10 @@ pub struct Correlation {
 
 fn no_value() -> f64 {
     f64::NAN
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -263,9 +279,15 @@ impl Summary {
     pub fn of(study: &str, table: &Table, outputs: &[Output]) -> Summary {
         let ok: Vec<_> = table.rows.iter().filter(|r| !r.failed()).collect();
         let failed = table.rows.len() as u64 - ok.len() as u64;
+        // an optional output may be NaN in a run that went through: its statistics take the
+        // runs that have it
         let values: Vec<Vec<f64>> = (0..outputs.len())
             .map(|k| {
-                let mut x: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
+                let mut x: Vec<f64> = ok
+                    .iter()
+                    .map(|r| r.outputs[k])
+                    .filter(|v| !v.is_nan())
+                    .collect();
                 x.sort_by(f64::total_cmp);
                 x
             })
@@ -301,6 +323,8 @@ impl Summary {
                 caution: o.caution.clone(),
                 count: x.len() as u64,
                 failed,
+                missing: ok.len() as u64 - x.len() as u64,
+                constant: x.len() > 1 && st::is_constant(x),
                 mean,
                 mean_ci95: st::mean_ci95(x),
                 sd,
@@ -328,6 +352,9 @@ impl Summary {
         let srrc: Vec<Vec<f64>> = (0..table.columns.outputs.len())
             .map(|k| {
                 let y: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
+                if st::is_constant(&y) {
+                    return vec![f64::NAN; columns.len()];
+                }
                 super::sensitivity::srrc(&columns, &y)
                     .map_or(vec![f64::NAN; columns.len()], |r| r.coefficients)
             })
@@ -336,12 +363,16 @@ impl Summary {
         for (i, (input, _)) in table.columns.inputs.iter().enumerate() {
             let x = &columns[i];
             for (k, (output, _)) in table.columns.outputs.iter().enumerate() {
-                let y: Vec<f64> = ok.iter().map(|r| r.outputs[k]).collect();
+                let (x, y): (Vec<f64>, Vec<f64>) = x
+                    .iter()
+                    .zip(ok.iter().map(|r| r.outputs[k]))
+                    .filter(|(_, y)| !y.is_nan())
+                    .unzip();
                 correlations.push(Correlation {
                     input: input.clone(),
                     output: output.clone(),
-                    pearson: st::pearson(x, &y),
-                    spearman: st::spearman(x, &y),
+                    pearson: st::pearson(&x, &y),
+                    spearman: st::spearman(&x, &y),
                     srrc: srrc[k][i],
                 });
             }
@@ -488,6 +519,16 @@ impl fmt::Display for Summary {
         .to_vec()];
         for o in &self.outputs {
             let flag = if o.caution.is_some() { " (!)" } else { "" };
+            if o.constant {
+                rows.push(vec![
+                    format!("{}{flag}", o.name),
+                    o.display_unit.clone(),
+                    o.count.to_string(),
+                    o.show(o.mean),
+                    "constant".into(),
+                ]);
+                continue;
+            }
             rows.push(vec![
                 format!("{}{flag}", o.name),
                 o.display_unit.clone(),
@@ -503,6 +544,15 @@ impl fmt::Display for Summary {
             ]);
         }
         write_columns(&mut s, &rows, 2);
+        for o in self.outputs.iter().filter(|o| o.missing > 0) {
+            let _ = writeln!(
+                s,
+                "{}: {} of {} samples that went through have no value (an optional output: the `missing` column says why)",
+                o.name,
+                o.missing,
+                o.count + o.missing
+            );
+        }
         for o in &self.outputs {
             if let Some(os) = &o.out_of_spec {
                 let limit = |v: Option<f64>, none: &str| v.map_or(none.into(), |v| o.show(v));
