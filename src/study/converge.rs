@@ -233,11 +233,8 @@ pub fn sigma_of(summary: &Summary, outputs: &[String]) -> Option<Vec<f64>> {
         .iter()
         .map(|o| {
             let s = summary.output(o)?;
-            Some(if s.constant || !(s.sd > 0.0) {
-                f64::NAN
-            } else {
-                s.sd
-            })
+            let spread = s.sd > 0.0 && !s.constant;
+            Some(if spread { s.sd } else { f64::NAN })
         })
         .collect::<Option<_>>()?;
     sigma.iter().any(|s| s.is_finite()).then_some(sigma)
