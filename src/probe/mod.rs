@@ -460,9 +460,7 @@ impl Progress {
             _ => (self.count > 0).then_some(self.acc),
         }
     }
-}
 
-impl Progress {
     /// Adds a step's share of the window, (start, end] with `area` = ∫ value dt, and
     /// updates the peak (`reduce`: max or min) of the mean over the trailing `length`.
     /// The value is constant over each step, so the integral is exact between step ends.
