@@ -78,7 +78,7 @@ fn a_value_out_of_range_names_the_field_and_the_value() {
     let e = set_error("joints.pin.clearance=-1mm");
     assert!(
         e.contains("joints.pin.clearance = -0.001")
-            && e.contains("`joints[1].clearance` must be positive"),
+            && e.contains("`joints[1].clearance` must be ≥ 0"),
         "{e}"
     );
     let e = set_error("forces.return.spring.stiffness=-5");
@@ -168,9 +168,9 @@ fn each_measure_refuses_what_it_cannot_measure() {
             "has no drive",
         ),
         (
-            "{ name: p, measure: { eccentricity: pivot } }",
+            "{ name: p, measure: { eccentricity: slide } }",
             "probes[1].measure.eccentricity",
-            "only a revolute-clearance joint",
+            "only a revolute joint, with or without clearance,",
         ),
         (
             "{ name: p, measure: { velocity: { body: ground } } }",
