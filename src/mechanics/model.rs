@@ -109,6 +109,19 @@ impl Model {
         }
     }
 
+    /// The candidates (by index) of the contact pair or clearance joint named `name`; a
+    /// joint's stops are not among them.
+    pub fn contact_candidates_of(&self, name: &str) -> Vec<usize> {
+        self.contact_candidates()
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| {
+                !matches!(c, Candidate::Limit { .. }) && self.candidate_owner(c) == name
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
     /// Generalized mass times `v` (diag(m I, I_body) per body).
     pub fn mass_times(&self, v: &DVector<f64>, out: &mut DVector<f64>) {
         for (i, b) in self.bodies.iter().enumerate() {

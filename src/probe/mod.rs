@@ -166,19 +166,9 @@ impl Transmission {
 
     /// What carries clearance joint `j`'s reaction: all its contact candidates.
     pub fn of_clearance(model: &Model, j: usize) -> Transmission {
-        let name = &model.clearance_joints[j].name;
-        let candidates = model
-            .contact_candidates()
-            .iter()
-            .enumerate()
-            .filter(|(_, &c)| {
-                !matches!(c, Candidate::Limit { .. }) && model.candidate_owner(c) == *name
-            })
-            .map(|(i, _)| i)
-            .collect();
         Transmission::Clearance {
             joint: j,
-            candidates,
+            candidates: model.contact_candidates_of(&model.clearance_joints[j].name),
         }
     }
 }

@@ -7,7 +7,6 @@ use super::schema::{DistanceSpec, EventSpec, MeasureSpec, Name, ProbeSpec, TimeR
 use crate::input::units::{Dim, DisplayUnit};
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::JointKind;
-use crate::mechanics::model::Candidate;
 use crate::mechanics::BodyRef;
 use crate::mechanics::Model;
 use crate::probe::{
@@ -21,15 +20,7 @@ type R<T> = Result<T, SceneError>;
 /// The contact candidates of a contact pair or clearance joint named `name`; the error names
 /// `field` and lists the names there are.
 pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> {
-    let ids: Vec<usize> = model
-        .contact_candidates()
-        .iter()
-        .enumerate()
-        .filter(|(_, &c)| {
-            !matches!(c, Candidate::Limit { .. }) && model.candidate_owner(c) == name.value
-        })
-        .map(|(i, _)| i)
-        .collect();
+    let ids = model.contact_candidates_of(&name.value);
     if ids.is_empty() && model.joints.iter().any(|j| j.name == name.value) {
         return Err(SceneError::at(
             line(name),
