@@ -155,7 +155,14 @@ fn slider_crank_stroke_is_twice_the_crank_radius() {
         let mut sim = crank(0.0);
         sim.params.h = 2e-5;
         let sim = sim.simulation().unwrap();
-        let run = mc_study::probe::run::run_probes(sim, &scene.probes, 0.2, false, |_, _, _| {});
+        let run = mc_study::probe::run::run_probes(
+            sim,
+            &scene.probes,
+            &scene.curves,
+            0.2,
+            false,
+            |_, _, _| {},
+        );
         let (hi, lo) = (
             run.values[0].clone().unwrap(),
             run.values[1].clone().unwrap(),
@@ -246,7 +253,14 @@ fn the_bundled_four_bar_with_ideal_pins_follows_the_closed_form() {
         );
     let scene = Scene::from_yaml(&text, "four-bar ideal").unwrap();
     let sim = scene.simulation().unwrap();
-    let run = mc_study::probe::run::run_probes(sim, &scene.probes, 1.0, false, |_, _, _| {});
+    let run = mc_study::probe::run::run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        1.0,
+        false,
+        |_, _, _| {},
+    );
     let value = |name: &str| {
         let k = scene.probes.iter().position(|p| p.name == name).unwrap();
         run.values[k].clone().unwrap().to_degrees()

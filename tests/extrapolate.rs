@@ -64,7 +64,14 @@ fn the_fork_reproduces_the_two_plain_runs_exactly() {
     }
     let scene = Scene::from_yaml(&pendulum("0.2 ms", true), "pendulum").unwrap();
     let sim = scene.simulation().unwrap();
-    let fork = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
+    let fork = run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        scene.duration,
+        true,
+        |_, _, _| {},
+    );
     let at = fork.forked_at.expect("the window opened");
     let fall = (2.0 * 0.07e-3 / 9.81f64).sqrt();
     assert!(

@@ -260,3 +260,106 @@ fn an_optional_probe_without_its_event_leaves_the_other_outputs() {
     let e = run(&ball(0.5, &probes(false))).unwrap_err();
     assert!(e.contains("occurrence 10"), "{e}");
 }
+
+/// A curve of the ball's vertical velocity against its height in free fall from 1 m: a
+/// grid point's value is the mean velocity while the height is within half a step of it,
+/// −s / (t(z − s/2) − t(z + s/2)) with t(z) = √(2 (1 m − z) / g) exactly. The velocity is
+/// read at each step's end, so it lags by g h / 2 at most.
+#[test]
+fn a_curve_is_the_mean_of_y_over_each_cell_of_x() {
+    let probes = r#"
+  - { name: height, measure: { distance: { from: { body: ground }, to: { body: ball }, axis: [0, 0, 1] } } }
+  - { name: speed, measure: { velocity: { body: ball }, axis: [0, 0, 1] } }
+  - { name: fall, curve: { x: height, y: speed, grid: "200 mm .. 950 mm step 50 mm" } }
+"#;
+    let text = ball(0.0, probes).replace("duration: 2 s", "duration: 0.42 s");
+    let scene = mc_study::scene::Scene::from_yaml(&text, "probe-ball.yaml").unwrap();
+    let sim = scene.simulation().unwrap();
+    let run = mc_study::probe::run::run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        0.42,
+        false,
+        |_, _, _| {},
+    );
+    assert!(run.error.is_none());
+    let g = 9.81;
+    let t = |z: f64| (2.0 * (1.0 - z) / g).sqrt();
+    let curve = &run.curves[0];
+    assert_eq!(curve.len(), 16);
+    for (i, v) in curve.iter().enumerate() {
+        let z = 0.2 + 0.05 * i as f64;
+        let exact = -0.05 / (t(z - 0.025) - t(z + 0.025));
+        assert!(
+            (v - exact).abs() < g * 1e-3,
+            "z = {z}: {v} m/s against {exact} m/s"
+        );
+    }
+    // the ball never goes below its radius: the cells beneath stay empty
+    let low = text.replace("200 mm .. 950 mm", "0 mm .. 950 mm");
+    let scene = mc_study::scene::Scene::from_yaml(&low, "probe-ball.yaml").unwrap();
+    let sim = scene.simulation().unwrap();
+    let run = mc_study::probe::run::run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        0.42,
+        false,
+        |_, _, _| {},
+    );
+    assert!(run.curves[0][0].is_nan() && run.curves[0][1].is_nan());
+}
+
+#[test]
+fn bad_curves_name_the_field_and_line() {
+    let base =
+        "  - { name: z, measure: { gap: floor } }\n  - { name: hit, event: { closes: floor } }\n";
+    let cases = [
+        (
+            "  - { name: c, curve: { x: zz, y: z, grid: \"0 .. 1 step 0.1\" } }\n",
+            "`probes[2].curve.x`",
+            "`zz` is not a value probe of the scene (value probes: z)",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: hit, grid: \"0 .. 1 step 0.1\" } }\n",
+            "`probes[2].curve.y`",
+            "`hit` is an event probe",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: z, grid: \"0 mm .. 1 s step 1 mm\" } }\n",
+            "`probes[2].curve.grid`",
+            "the grid's end `1 s` has a unit of a time",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: z, grid: \"0 mm to 1 mm\" } }\n",
+            "`probes[2].curve.grid`",
+            "FROM .. TO step STEP",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: z, grid: \"1 mm .. 0 mm step 1 mm\" } }\n",
+            "`probes[2].curve.grid`",
+            "must run upward",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: z, grid: \"0 .. 1 step 0.1\" }, reduce: max }\n",
+            "`probes[2].reduce`",
+            "a curve takes no `reduce`",
+        ),
+        (
+            "  - { name: c, measure: { gap: floor }, reference: bench.csv }\n",
+            "`probes[2].reference`",
+            "it goes with `curve`",
+        ),
+        (
+            "  - { name: c, curve: { x: z, y: z, grid: \"0 .. 1 step 0.1\" }, from: nope }\n",
+            "`probes[2].from`",
+            "`nope` is neither a time",
+        ),
+    ];
+    for (probe, field, message) in cases {
+        let e = run(&ball(0.5, &format!("{base}{probe}"))).unwrap_err();
+        assert!(e.contains(field) && e.contains(message), "{e}");
+        assert!(e.contains("probe-ball.yaml:19"), "{e}");
+    }
+}

@@ -7,7 +7,14 @@ use mc_study::scene::Scene;
 /// The probe values of `scene` run to its end.
 fn probes(scene: &Scene) -> Vec<f64> {
     let sim = scene.simulation().unwrap();
-    let run = run_probes(sim, &scene.probes, scene.duration, false, |_, _, _| {});
+    let run = run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        scene.duration,
+        false,
+        |_, _, _| {},
+    );
     assert!(run.error.is_none(), "{:?}", run.error);
     run.values
         .into_iter()

@@ -413,3 +413,65 @@ fn refine_names_an_unknown_contact_or_a_non_positive_step() {
         2,
     );
 }
+
+/// A legal but implausible value (a unit slip, most often) is warned about with its line
+/// and field, and the scene still loads; no bundled scene draws a warning.
+#[test]
+fn implausible_values_are_warned_about_not_refused() {
+    let warnings = |text: &str| Scene::from_yaml(text, "scene.yaml").unwrap().warnings;
+    assert!(warnings(GOOD_BALL).is_empty(), "{:?}", warnings(GOOD_BALL));
+    // 1000 kg in a 0.1 m ball is 2.4e5 kg/m³, beyond any solid; 1 g is 0.24 kg/m³
+    for mass in ["1000 kg", "1 g"] {
+        let w = warnings(&GOOD_BALL.replacen("mass: 1 kg", &format!("mass: {mass}"), 1));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("scene.yaml:4: bodies.ball.mass:") && w[0].contains("density"),
+            "{w:?}"
+        );
+    }
+    // an inertia given in g·mm² where kg·m² is meant
+    let w = warnings(&GOOD_BALL.replacen(
+        "mass: 1 kg",
+        "mass: 1 kg\n    inertia: [4000, 4000, 4000]",
+        1,
+    ));
+    assert!(
+        w.len() == 1 && w[0].starts_with("scene.yaml:5: bodies.ball.inertia is 1.000e6 times"),
+        "{w:?}"
+    );
+    for name in [
+        "bouncing-ball",
+        "c60",
+        "cam-follower",
+        "cam-rocker",
+        "four-bar",
+        "four-bar-clearance",
+        "free-body",
+        "heavy-top",
+        "incline-block",
+        "pendulum",
+        "pendulum-clearance",
+        "slider-crank-clearance",
+    ] {
+        let s = Scene::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("studies")
+                .join(name)
+                .join("scene.yaml"),
+        )
+        .unwrap();
+        assert!(s.warnings.is_empty(), "{name}: {:?}", s.warnings);
+    }
+    // a clearance of 0.1 m (meant as mm) on a 4 mm journal
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("studies/four-bar-clearance/scene.yaml");
+    let mut s = Scene::load(&path).unwrap();
+    s.set_parameter("joints.C.clearance", 0.1).unwrap();
+    assert!(
+        s.warnings.len() == 1
+            && s.warnings[0]
+                .contains("joints.C.clearance: 0.1 m is larger than the journal radius (0.004 m)"),
+        "{:?}",
+        s.warnings
+    );
+}

@@ -19,5 +19,10 @@ pub fn report(args: &ReportArgs) -> Result<()> {
         r.figures.len(),
         r.html.with_file_name("figures").display()
     );
+    for c in &r.curves {
+        if let Some(line) = crate::report::curves::describe(c) {
+            println!("{line}");
+        }
+    }
     Ok(())
 }

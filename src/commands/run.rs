@@ -61,6 +61,9 @@ pub fn run(args: &RunArgs) -> Result<Option<u8>> {
     opts.rows_per_part = args.part_rows;
     opts.seconds_per_part = args.part_seconds;
     let signals = StopSignals::listen(opts.stop.clone())?;
+    for w in study.subject.warnings() {
+        eprintln!("warning: {w}");
+    }
     for o in &study.outputs {
         if let Some(c) = &o.caution {
             eprintln!("caution: {c}");

@@ -45,6 +45,9 @@ pub fn simulate_command(args: &SimulateArgs) -> Result<()> {
             .apply_setting(s)
             .map_err(|e| anyhow::anyhow!("--set {e}"))?;
     }
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
     if let Some(p) = &args.out {
         let ext = p.extension().and_then(|e| e.to_str());
         if !matches!(ext, Some("csv" | "parquet")) {

@@ -2,6 +2,7 @@
 //! online while the simulation steps, so that a sample keeps a few numbers and no trajectory.
 //! `run` steps a simulation with its probes (extrapolated over a refinement window).
 
+pub mod curve;
 pub mod run;
 
 use crate::input::units::DisplayUnit;
@@ -10,6 +11,7 @@ use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::Drive;
 use crate::mechanics::model::Candidate;
 use crate::mechanics::{BodyRef, Model, Pose};
+use curve::{Curve, CurveCells};
 use nalgebra::{Matrix3x6, Vector3, Vector6};
 use std::collections::VecDeque;
 use std::ops::Range;
@@ -498,29 +500,70 @@ fn closing_delay(gap: f64, u: f64, h: f64) -> f64 {
     }
 }
 
-/// Observes a simulation step by step and produces every probe's value.
+/// The time `r` stands for, if known (an event probe's time once it happened).
+fn time_of(progress: &[Progress], r: TimeRef) -> Option<f64> {
+    match r {
+        TimeRef::Time(t) => Some(t),
+        TimeRef::Probe(i) => progress[i].value,
+    }
+}
+
+/// Observes a simulation step by step and produces every probe's value and every curve.
 #[derive(Clone)]
 pub struct ProbeRecorder<'a> {
     probes: &'a [Probe],
     progress: Vec<Progress>,
+    curves: &'a [Curve],
+    cells: Vec<CurveCells>,
     /// The previous observation's time: the step just observed covers (last_t, t].
     last_t: Option<f64>,
 }
 
 impl<'a> ProbeRecorder<'a> {
-    pub fn new(probes: &'a [Probe]) -> Self {
+    pub fn new(probes: &'a [Probe], curves: &'a [Curve]) -> Self {
         ProbeRecorder {
             probes,
             progress: vec![Progress::default(); probes.len()],
+            curves,
+            cells: curves.iter().map(|c| CurveCells::new(&c.grid)).collect(),
             last_t: None,
         }
     }
 
     /// The time of an event probe, if it happened.
     fn time(&self, r: TimeRef) -> Option<f64> {
-        match r {
-            TimeRef::Time(t) => Some(t),
-            TimeRef::Probe(i) => self.progress[i].value,
+        time_of(&self.progress, r)
+    }
+
+    /// Adds the step just taken, (last_t, t], to every curve whose window it meets.
+    fn observe_curves(&mut self, sim: &Simulation) {
+        let t = sim.state.t;
+        for (c, cells) in self.curves.iter().zip(self.cells.iter_mut()) {
+            if cells.closed {
+                continue;
+            }
+            let x = c.x.value(sim);
+            let previous = cells.previous_x.replace(x);
+            let (Some(t_prev), Some(xa)) = (self.last_t, previous) else {
+                continue;
+            };
+            let t1 = c.to.and_then(|r| time_of(&self.progress, r));
+            if t1.is_some_and(|t1| t_prev >= t1) {
+                cells.closed = true;
+                continue;
+            }
+            let t0 = match c.from {
+                None => f64::NEG_INFINITY,
+                Some(r) => match time_of(&self.progress, r) {
+                    Some(t0) => t0,
+                    None => continue,
+                },
+            };
+            let (a, b) = (t_prev.max(t0), t.min(t1.unwrap_or(f64::INFINITY)));
+            if b > a {
+                let along = |s: f64| xa + (x - xa) * ((s - t_prev) / (t - t_prev));
+                cells.add(&c.grid, along(a), along(b), c.y.value(sim), b - a);
+            }
         }
     }
 
@@ -710,12 +753,19 @@ impl<'a> ProbeRecorder<'a> {
             };
             g.count += 1;
         }
+        self.observe_curves(sim);
         self.last_t = Some(t);
     }
 
-    /// Whether every probe is known, so that the run can stop early.
+    /// Whether every probe is known and every curve's window closed, so that the run can
+    /// stop early.
     pub fn done(&self) -> bool {
-        self.progress.iter().all(|g| g.value.is_some())
+        self.progress.iter().all(|g| g.value.is_some()) && self.cells.iter().all(|c| c.closed)
+    }
+
+    /// Each curve's values on its grid so far (NaN in cells x has not entered).
+    pub fn curves(&self) -> Vec<Vec<f64>> {
+        self.cells.iter().map(CurveCells::values).collect()
     }
 
     /// Each probe's value at the end of the run, or why it has none.

@@ -10,6 +10,7 @@
 //! in the Moreau–Jean step, smooth in h_w once impacts are located.
 
 use crate::integrator::{RunStats, SimError, Simulation, StepReport};
+use crate::probe::curve::Curve;
 use crate::probe::{Probe, ProbeRecorder};
 
 /// Which branch a step belongs to: the main one (the only one without extrapolation, the
@@ -26,6 +27,8 @@ pub struct ProbeRun {
     pub sim: Simulation,
     /// Each probe's value (extrapolated when the run forked), or why it has none.
     pub values: Vec<Result<f64, String>>,
+    /// Each curve's values on its grid (extrapolated cell by cell when the run forked).
+    pub curves: Vec<Vec<f64>>,
     /// The first failure of either branch; the values are then those up to the failure.
     pub error: Option<String>,
     /// Both branches' diagnostics: counts summed (shared steps once), extremes combined.
@@ -34,17 +37,18 @@ pub struct ProbeRun {
     pub forked_at: Option<f64>,
 }
 
-/// Runs `sim` to `t_end` with `probes` (stopping early once all are known if
-/// `stop_when_known`), calling `observe` after every step of either branch.
+/// Runs `sim` to `t_end` with `probes` and `curves` (stopping early once all are known
+/// if `stop_when_known`), calling `observe` after every step of either branch.
 pub fn run_probes(
     mut sim: Simulation,
     probes: &[Probe],
+    curves: &[Curve],
     t_end: f64,
     stop_when_known: bool,
     mut observe: impl FnMut(&Simulation, &StepReport, Branch),
 ) -> ProbeRun {
     let extrapolate = sim.schedule.refine.as_ref().is_some_and(|r| r.extrapolate);
-    let mut recorder = ProbeRecorder::new(probes);
+    let mut recorder = ProbeRecorder::new(probes, curves);
     recorder.observe(&sim);
     let mut stop = Stop {
         t_end,
@@ -70,6 +74,7 @@ pub fn run_probes(
         coarse = Some((c, c_recorder, c_outcome, fork_stats, forked_at));
     }
     let mut error = outcome.err().map(|e| e.to_string());
+    let mut curves = recorder.curves();
     let mut values = recorder.finish_each(sim.state.t);
     let mut stats = sim.stats;
     let mut forked_at = None;
@@ -77,6 +82,11 @@ pub fn run_probes(
         forked_at = Some(at);
         if let (None, Err(e)) = (&error, c_outcome) {
             error = Some(format!("{e} (in the extrapolation's coarse branch)"));
+        }
+        for (fine, coarse) in curves.iter_mut().zip(c_recorder.curves()) {
+            for (f, c) in fine.iter_mut().zip(coarse) {
+                *f = 2.0 * *f - c;
+            }
         }
         let coarse_values = c_recorder.finish_each(c.state.t);
         values = values
@@ -93,6 +103,7 @@ pub fn run_probes(
     ProbeRun {
         sim,
         values,
+        curves,
         error,
         stats,
         forked_at,

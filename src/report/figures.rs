@@ -638,6 +638,153 @@ impl Figure for WorkPrecisionFigure {
     }
 }
 
+/// A curve's population against x: the 5–95 % band, the median, the nominal run and the
+/// measured points, each where it has values.
+pub struct CurveFigure<'a> {
+    pub title: String,
+    pub x_name: &'a str,
+    pub x_scale: DisplayUnit,
+    pub y_name: &'a str,
+    pub y_scale: DisplayUnit,
+    /// Grid points (SI) with the band's (low, median, high) there, where the band exists.
+    pub band: Vec<(f64, f64, f64, f64)>,
+    /// The nominal run on the grid (SI; NaN where it has no value).
+    pub nominal: Option<Vec<(f64, f64)>>,
+    /// Measured points (SI).
+    pub reference: &'a [(f64, f64)],
+}
+
+/// The runs of consecutive items that pass `keep` (a curve breaks where it has no value).
+fn runs<T: Copy>(items: &[T], keep: impl Fn(&T) -> bool) -> Vec<Vec<T>> {
+    let mut out: Vec<Vec<T>> = vec![Vec::new()];
+    for it in items {
+        match keep(it) {
+            true => out.last_mut().expect("one run").push(*it),
+            false if !out.last().expect("one run").is_empty() => out.push(Vec::new()),
+            false => {}
+        }
+    }
+    out.retain(|r| !r.is_empty());
+    out
+}
+
+impl Figure for CurveFigure<'_> {
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        area.fill(&WHITE)?;
+        let (kx, ky) = (self.x_scale.per_si, self.y_scale.per_si);
+        let nominal = self.nominal.as_deref().unwrap_or(&[]);
+        let xs = self
+            .band
+            .iter()
+            .map(|b| b.0)
+            .chain(nominal.iter().filter(|p| p.1.is_finite()).map(|p| p.0))
+            .chain(self.reference.iter().map(|p| p.0));
+        let ys = self
+            .band
+            .iter()
+            .flat_map(|b| [b.1, b.3])
+            .chain(nominal.iter().map(|p| p.1))
+            .chain(self.reference.iter().map(|p| p.1));
+        let span = |v: &mut dyn Iterator<Item = f64>, k: f64| {
+            let (lo, hi) = v
+                .filter(|v| v.is_finite())
+                .fold((f64::MAX, f64::MIN), |(a, b), v| {
+                    (a.min(v * k), b.max(v * k))
+                });
+            padded(lo, hi)
+        };
+        let (x0, x1) = span(&mut xs.into_iter(), kx);
+        let (y0, y1) = span(&mut ys.into_iter(), ky);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, (FONT, TITLE))
+            .margin(12)
+            .x_label_area_size(52)
+            .y_label_area_size(88)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x_scale.heading(self.x_name))
+            .y_desc(self.y_scale.heading(self.y_name))
+            .x_label_formatter(&tick_format(x0, x1))
+            .y_label_formatter(&tick_format(y0, y1))
+            .x_labels(6)
+            .y_labels(6)
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXIS))
+            .draw()?;
+        let scaled = |x: f64, y: f64| (x * kx, y * ky);
+        // the band breaks where the grid has no value: `band` holds the points that have one
+        let step = self
+            .band
+            .windows(2)
+            .map(|w| w[1].0 - w[0].0)
+            .fold(f64::MAX, f64::min);
+        let mut pieces: Vec<Vec<(f64, f64, f64, f64)>> = Vec::new();
+        for b in &self.band {
+            match pieces.last_mut() {
+                Some(p) if b.0 - p.last().expect("non-empty").0 <= step * 1.5 => p.push(*b),
+                _ => pieces.push(vec![*b]),
+            }
+        }
+        for (i, run) in pieces.iter().enumerate() {
+            let outline: Vec<(f64, f64)> = run
+                .iter()
+                .map(|b| scaled(b.0, b.3))
+                .chain(run.iter().rev().map(|b| scaled(b.0, b.1)))
+                .collect();
+            let series = chart.draw_series(std::iter::once(Polygon::new(
+                outline,
+                BLUE.mix(0.2).filled(),
+            )))?;
+            if i == 0 {
+                series.label("5–95 % band").legend(|(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 16, y + 5)], BLUE.mix(0.2).filled())
+                });
+            }
+        }
+        for (i, run) in pieces.iter().enumerate() {
+            let series = chart.draw_series(LineSeries::new(
+                run.iter().map(|b| scaled(b.0, b.2)),
+                BLUE.stroke_width(2),
+            ))?;
+            if i == 0 {
+                series
+                    .label("median")
+                    .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLUE.stroke_width(2)));
+            }
+        }
+        for (i, run) in runs(nominal, |p| p.1.is_finite()).iter().enumerate() {
+            let series = chart.draw_series(LineSeries::new(
+                run.iter().map(|p| scaled(p.0, p.1)),
+                ORANGE.stroke_width(2),
+            ))?;
+            if i == 0 {
+                series.label("nominal run").legend(|(x, y)| {
+                    PathElement::new([(x, y), (x + 16, y)], ORANGE.stroke_width(2))
+                });
+            }
+        }
+        if !self.reference.is_empty() {
+            chart
+                .draw_series(
+                    self.reference
+                        .iter()
+                        .map(|p| Circle::new(scaled(p.0, p.1), 3, BLACK.filled())),
+                )?
+                .label("measured")
+                .legend(|(x, y)| Circle::new((x + 8, y), 3, BLACK.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(GREY)
+            .label_font((FONT, SMALL))
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()?;
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -372,6 +372,7 @@ fn figure_sections(s: &mut String, data: &Data, figures: &[FigureFile]) -> Resul
     let (_, suspect, failed) = counts(t);
     for (section, title, intro) in [
         ("tolerances", "Contributors", "Each input's share of the output's variance in the linear stack-up, largest first (a Pareto chart). Trust it where R² is near 1."),
+        ("curves", "Curves", "Each sample's curve on its grid: the pointwise median and 5–95 % band over the samples that went through, the nominal run (every input at its median) and the measured points where the scene gives a <code>reference</code>. A grid point's value is the mean of y while x is within half a grid step of it."),
         ("distributions", "Distributions", "Histogram with the fitted normal, the mean, mean ± 3σ and the specification limits; empirical CDF."),
         ("sensitivity", "Sensitivity figures", ""),
         ("scatter", "Outputs against inputs", ""),
@@ -385,6 +386,9 @@ fn figure_sections(s: &mut String, data: &Data, figures: &[FigureFile]) -> Resul
         let _ = writeln!(s, "<h2>{title}</h2>");
         if !intro.is_empty() {
             let _ = writeln!(s, "<p>{intro}</p>");
+        }
+        if section == "curves" {
+            super::curves::section(s, &data.curves);
         }
         if section == "health" {
             let _ = writeln!(s, "<p>{failed} of {} samples failed.</p>", t.rows.len());

@@ -2,6 +2,7 @@
 //! inlined as SVG, no network) plus an SVG and a PNG per figure in `OUT/report/figures/`,
 //! and the sensitivity indices in `OUT/report/sensitivity.json`.
 
+pub mod curves;
 pub mod figures;
 mod html;
 mod rare_event;
@@ -80,6 +81,8 @@ pub struct Report {
     pub html: PathBuf,
     pub figures: Vec<FigureFile>,
     pub sensitivity: Vec<OutputSensitivity>,
+    /// The curves, with their comparisons against measured points.
+    pub curves: Vec<curves::CurveView>,
 }
 
 fn to_pair(r: Option<Regression>) -> Option<(Vec<f64>, f64)> {
@@ -97,6 +100,7 @@ pub(crate) struct Data {
     /// Worst case, RSS and Monte Carlo per output.
     pub tolerances: Vec<Comparison>,
     pub worst_case: Option<WorstCase>,
+    pub curves: Vec<curves::CurveView>,
 }
 
 fn column(table: &Table, f: impl Fn(&store::Row) -> f64) -> Vec<f64> {
@@ -115,8 +119,9 @@ fn analyse(out: &Path) -> Result<Data> {
     let missing =
         Ranges::from_ids(table.rows.iter().map(|r| r.id).collect()).missing_in(0, manifest.runs);
     let study = crate::study::merge::stored_study(&manifest, &table)?;
-    let summary =
-        Summary::of(&manifest.study_name, &table, &study.outputs).with_inputs(&study.parameters);
+    let summary = Summary::of(&manifest.study_name, &table, &study.outputs)
+        .with_inputs(&study.parameters)
+        .with_curves(&table, study.subject.curves());
     let d = table.columns.inputs.len();
     let saltelli = manifest.design == "saltelli";
     // rows for the regressions: the independent points (A and B blocks of Saltelli)
@@ -155,7 +160,9 @@ fn analyse(out: &Path) -> Result<Data> {
         .collect();
     let worst_case = WorstCase::load(&worst_case_run::directory(out))?;
     let tolerances = compare(&study, Some((&table, &summary)), worst_case.as_ref());
+    let curves = curves::views(out, &study, &table, &summary.curves);
     Ok(Data {
+        curves,
         tolerances,
         worst_case,
         out: out.to_path_buf(),
@@ -213,6 +220,7 @@ fn draw_figures(data: &Data, dir: &Path) -> Result<Vec<FigureFile>> {
         scatter_figures(data, k, &ok, &inputs, dir, &mut out)?;
         sensitivity_figures(data, k, &inputs, dir, &mut out)?;
     }
+    curves::figures(&data.curves, dir, &mut out)?;
     health_figures(t, dir, &mut out)?;
     Ok(out)
 }
@@ -499,6 +507,10 @@ pub fn build(out: &Path) -> Result<Report> {
     let figures = draw_figures(&data, &fig_dir)?;
     let json = serde_json::to_string_pretty(&data.sensitivity)?;
     std::fs::write(dir.join("sensitivity.json"), json)?;
+    if !data.curves.is_empty() {
+        let json = serde_json::to_string_pretty(&data.curves)?;
+        std::fs::write(dir.join("curves.json"), json)?;
+    }
     let page = html::page(&data, &figures)?;
     let path = dir.join("report.html");
     std::fs::write(&path, page).with_context(|| format!("writing {}", path.display()))?;
@@ -506,5 +518,6 @@ pub fn build(out: &Path) -> Result<Report> {
         html: path,
         figures,
         sensitivity: data.sensitivity,
+        curves: data.curves,
     })
 }

@@ -307,5 +307,6 @@ pub fn build(out: &Path) -> Result<super::Report> {
         html: path,
         figures,
         sensitivity: Vec::new(),
+        curves: Vec::new(),
     })
 }

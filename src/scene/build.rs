@@ -55,7 +55,8 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
     // the phases' steps and tolerances are ratios of the document's own
     let schedule = super::phases::schedule(spec, &model, &params)?;
     // probes measure from the written configuration, so they are built before assembly
-    let probes = super::probes::probes(&model, &spec.probes)?;
+    let (probes, curves) = super::probes::probes(&model, &spec.probes)?;
+    let warnings = super::plausibility::warnings(spec, &model, file);
     let assembly = assemble(&mut model, &targets, params.projection_tolerance).map_err(|e| {
         let joint = match &e {
             AssemblyError::Positions { joint, .. } | AssemblyError::Velocities { joint, .. } => {
@@ -83,6 +84,8 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         file: file.to_string(),
         tuning,
         probes,
+        curves,
+        warnings,
         assembly,
         params,
         schedule,

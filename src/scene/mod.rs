@@ -14,6 +14,7 @@ mod joints;
 mod mesh_file;
 pub mod parameter_paths;
 mod phases;
+mod plausibility;
 mod probes;
 pub mod schema;
 mod shapes;
@@ -59,6 +60,11 @@ pub struct Scene {
     pub record_every: usize,
     /// Named outputs of a run.
     pub probes: Vec<crate::probe::Probe>,
+    /// Curves of one probe's measure against another's.
+    pub curves: Vec<crate::probe::curve::Curve>,
+    /// Values that are legal but implausible (a unit slip, most often), each as
+    /// `FILE:LINE: FIELD: why`: the commands print them, and the run goes on.
+    pub warnings: Vec<String>,
     /// How the written poses and velocities were assembled into the initial state.
     pub assembly: Assembly,
 }

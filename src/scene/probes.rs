@@ -9,6 +9,7 @@ use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::JointKind;
 use crate::mechanics::BodyRef;
 use crate::mechanics::Model;
+use crate::probe::curve::{Curve, Grid, ReferenceFile};
 use crate::probe::{
     Direction, Event, Measure, Part, Probe, ProbeKind, Reduce, RelativeAngle, TimeRef, Transmission,
 };
@@ -608,71 +609,215 @@ fn time_ref(specs: &[ProbeSpec], t: &Spanned<TimeSpec>, field: &str) -> R<TimeRe
     }
 }
 
-/// Builds every probe of the scene against `model`.
-pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<Vec<Probe>> {
+/// Builds every probe of the scene against `model`: the value and event probes, then the
+/// curves, which draw value probes' measures.
+pub(super) fn probes(model: &Model, specs: &[ProbeSpec]) -> R<(Vec<Probe>, Vec<Curve>)> {
+    // windows and curves refer to value and event probes by their index among them
+    let scalars: Vec<ProbeSpec> = specs
+        .iter()
+        .filter(|p| p.curve.is_none())
+        .cloned()
+        .collect();
     let mut out: Vec<Probe> = Vec::new();
+    let mut curves: Vec<Curve> = Vec::new();
+    let mut curve_specs = Vec::new();
     for (i, p) in specs.iter().enumerate() {
         let f = |s: &str| format!("probes[{i}].{s}");
         if let Some(why) = crate::input::columns::column_name_error(&p.name.value) {
             return Err(SceneError::at(line(&p.name), f("name"), why));
         }
-        if out.iter().any(|q| q.name == p.name.value) {
+        if specs[..i].iter().any(|q| q.name.value == p.name.value) {
             return Err(SceneError::at(
                 line(&p.name),
                 f("name"),
                 format!("duplicate probe name `{}`", p.name.value),
             ));
         }
-        let mut caution = None;
-        let (kind, dim) = match (&p.event, &p.measure) {
-            (Some(e), None) => {
-                if let Some(extra) = [&p.at, &p.from, &p.to].into_iter().flatten().next() {
-                    return Err(SceneError::at(
-                        line(extra),
-                        f("event"),
-                        "an event probe takes no `at`, `from` or `to`",
-                    ));
-                }
-                let (event, occurrence) = event(model, e, &f("event"))?;
-                (ProbeKind::Event { event, occurrence }, Dim::TIME)
-            }
-            (None, Some(m)) => {
-                let (measure, dim) = measure(model, m, &f("measure"))?;
-                let (kind, reduce) = value_probe(specs, p, measure, &f)?;
-                if let ProbeKind::Value {
-                    measure, mean_over, ..
-                } = &kind
-                {
-                    let averaged = mean_over.is_some();
-                    caution = self::caution(model, measure, reduce, averaged, &p.name.value);
-                }
-                (kind, dim)
-            }
-            _ => {
-                return Err(SceneError::at(
-                    line(&p.name),
-                    format!("probes[{i}]"),
-                    "needs exactly one of `event` and `measure`",
-                ))
-            }
-        };
-        let display = match &p.unit {
-            None => None,
-            Some(u) => Some(
-                DisplayUnit::parse(&u.value, dim)
-                    .map_err(|m| SceneError::at(line(u), f("unit"), m))?,
-            ),
-        };
-        out.push(Probe {
-            name: p.name.value.clone(),
-            unit: dim.si_unit(),
-            display,
-            caution,
-            optional: p.optional,
-            kind,
-        });
+        if p.curve.is_some() {
+            curve_specs.push((i, p));
+            continue;
+        }
+        if let Some(r) = &p.reference {
+            return Err(SceneError::at(
+                line(r),
+                f("reference"),
+                "`reference` holds measured points of a curve: it goes with `curve`",
+            ));
+        }
+        out.push(scalar_probe(model, &scalars, p, i)?);
     }
-    Ok(out)
+    for (i, p) in curve_specs {
+        curves.push(curve_probe(&scalars, &out, p, i)?);
+    }
+    Ok((out, curves))
+}
+
+/// A value or event probe.
+fn scalar_probe(model: &Model, scalars: &[ProbeSpec], p: &ProbeSpec, i: usize) -> R<Probe> {
+    let f = |s: &str| format!("probes[{i}].{s}");
+    let mut caution = None;
+    let (kind, dim) = match (&p.event, &p.measure) {
+        (Some(e), None) => {
+            if let Some(extra) = [&p.at, &p.from, &p.to].into_iter().flatten().next() {
+                return Err(SceneError::at(
+                    line(extra),
+                    f("event"),
+                    "an event probe takes no `at`, `from` or `to`",
+                ));
+            }
+            let (event, occurrence) = event(model, e, &f("event"))?;
+            (ProbeKind::Event { event, occurrence }, Dim::TIME)
+        }
+        (None, Some(m)) => {
+            let (measure, dim) = measure(model, m, &f("measure"))?;
+            let (kind, reduce) = value_probe(scalars, p, measure, &f)?;
+            if let ProbeKind::Value {
+                measure, mean_over, ..
+            } = &kind
+            {
+                let averaged = mean_over.is_some();
+                caution = self::caution(model, measure, reduce, averaged, &p.name.value);
+            }
+            (kind, dim)
+        }
+        _ => {
+            return Err(SceneError::at(
+                line(&p.name),
+                format!("probes[{i}]"),
+                "needs exactly one of `event`, `measure` and `curve`",
+            ))
+        }
+    };
+    Ok(Probe {
+        name: p.name.value.clone(),
+        unit: dim.si_unit(),
+        display: display_unit(p, dim, i)?,
+        caution,
+        optional: p.optional,
+        kind,
+    })
+}
+
+/// The unit a probe asks its values to be shown in (`unit:`), if it asks.
+fn display_unit(p: &ProbeSpec, dim: Dim, i: usize) -> R<Option<DisplayUnit>> {
+    p.unit
+        .as_ref()
+        .map(|u| {
+            DisplayUnit::parse(&u.value, dim)
+                .map_err(|m| SceneError::at(line(u), format!("probes[{i}].unit"), m))
+        })
+        .transpose()
+}
+
+/// A curve: the measures of two value probes of `built` (in the order of `scalars`), its
+/// grid and its window.
+fn curve_probe(scalars: &[ProbeSpec], built: &[Probe], p: &ProbeSpec, i: usize) -> R<Curve> {
+    let f = |s: &str| format!("probes[{i}].{s}");
+    let c = p.curve.as_ref().expect("a curve probe");
+    let extra = [
+        p.event.as_ref().map(|e| (line(e), "event")),
+        p.measure.as_ref().map(|m| (line(m), "measure")),
+        p.reduce.as_ref().map(|r| (line(r), "reduce")),
+        p.at.as_ref().map(|a| (line(a), "at")),
+        p.mean_over.as_ref().map(|q| (line(q), "mean_over")),
+    ];
+    if let Some((at, key)) = extra.into_iter().flatten().next() {
+        return Err(SceneError::at(
+            at,
+            f(key),
+            format!("a curve takes no `{key}`: it draws two value probes' measures (`x`, `y`) on a grid, over the window `from`–`to`"),
+        ));
+    }
+    if p.optional {
+        return Err(SceneError::at(
+            line(c),
+            f("optional"),
+            "a curve is never missing as a whole: the grid points its x never reaches are left empty",
+        ));
+    }
+    let axis = |name: &Name, key: &str| -> R<(Measure, Dim, Option<DisplayUnit>)> {
+        let Some(k) = built.iter().position(|q| q.name == name.value) else {
+            return Err(SceneError::at(
+                line(name),
+                f(&format!("curve.{key}")),
+                format!(
+                    "`{}` is not a value probe of the scene (value probes: {})",
+                    name.value,
+                    built
+                        .iter()
+                        .filter(|q| matches!(q.kind, ProbeKind::Value { .. }))
+                        .map(|q| q.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        };
+        match &built[k].kind {
+            ProbeKind::Value { measure, .. } => Ok((
+                measure.clone(),
+                Dim::of_unit(&built[k].unit).unwrap_or(Dim::NONE),
+                built[k].display.clone(),
+            )),
+            ProbeKind::Event { .. } => Err(SceneError::at(
+                line(name),
+                f(&format!("curve.{key}")),
+                format!(
+                    "`{}` is an event probe: a curve draws value probes' measures",
+                    name.value
+                ),
+            )),
+        }
+    };
+    let (x, x_dim, x_display) = axis(&c.value.x, "x")?;
+    let (y, y_dim, y_display) = axis(&c.value.y, "y")?;
+    let grid = grid(&c.value.grid.value, x_dim)
+        .map_err(|m| SceneError::at(line(&c.value.grid), f("curve.grid"), m))?;
+    let opt = |t: &Option<Spanned<TimeSpec>>, name: &str| {
+        t.as_ref()
+            .map(|t| time_ref(scalars, t, &f(name)))
+            .transpose()
+    };
+    Ok(Curve {
+        name: p.name.value.clone(),
+        x_name: c.value.x.value.clone(),
+        y_name: c.value.y.value.clone(),
+        x,
+        y,
+        x_unit: x_dim.si_unit(),
+        unit: y_dim.si_unit(),
+        display: display_unit(p, y_dim, i)?.or(y_display),
+        x_display,
+        grid,
+        from: opt(&p.from, "from")?,
+        to: opt(&p.to, "to")?,
+        reference: p.reference.as_ref().map(|r| ReferenceFile {
+            file: r.value.clone(),
+            line: line(r),
+            field: f("reference"),
+        }),
+    })
+}
+
+/// A grid written `FROM .. TO step STEP`, each with a unit of x's dimension (or SI).
+fn grid(text: &str, dim: Dim) -> Result<Grid, String> {
+    let form = "write it as `FROM .. TO step STEP`, e.g. `0 mm .. 6 mm step 0.05 mm`";
+    let (from, rest) = text
+        .split_once("..")
+        .ok_or_else(|| format!("`{text}`: {form}"))?;
+    let (to, step) = rest
+        .split_once("step")
+        .ok_or_else(|| format!("`{text}`: {form}"))?;
+    let value = |part: &str, what: &str| -> Result<f64, String> {
+        crate::input::units::parse_quantity(part)
+            .and_then(|q| q.value(dim))
+            .map_err(|e| format!("`{text}`: the grid's {what} `{}` {e}", part.trim()))
+    };
+    Grid::span(
+        value(from, "start")?,
+        value(to, "end")?,
+        value(step, "step")?,
+    )
+    .map_err(|e| format!("`{text}`: {e}"))
 }
 
 /// A probe that reduces `measure` over time: its reduction and its window (`at`, or

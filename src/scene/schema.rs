@@ -393,6 +393,11 @@ pub struct ProbeSpec {
     pub name: Name,
     pub event: Option<Spanned<EventSpec>>,
     pub measure: Option<Spanned<MeasureSpec>>,
+    /// One probe's measure against another's, resampled on a grid of the first.
+    pub curve: Option<Spanned<CurveSpec>>,
+    /// With `curve`: a CSV file of measured points (x, y), relative to the scene file, for
+    /// the report to draw over the study's curves and compare with.
+    pub reference: Option<Name>,
     /// `at` (default), `max`, `min`, `mean` or `sum`.
     pub reduce: Option<Name>,
     pub at: Option<Spanned<TimeRef>>,
@@ -408,6 +413,16 @@ pub struct ProbeSpec {
     /// The unit the summary and the report show the value in (default: chosen from the
     /// values), e.g. `mm`, `N*mm`, `deg`.
     pub unit: Option<Name>,
+}
+
+/// `curve: { x: PROBE, y: PROBE, grid: "0 mm .. 6 mm step 0.05 mm" }`: the measure of
+/// value probe `y` against that of value probe `x`, on a grid of x's values.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    pub x: Name,
+    pub y: Name,
+    pub grid: Name,
 }
 
 /// Exactly one of: `closes: CONTACT` (its normal impulse becomes positive), `opens:

@@ -91,6 +91,24 @@ pub struct ProbeValue {
     pub caution: Option<String>,
 }
 
+/// A curve probe's outcome: its grid and values (SI), and the file it was written to.
+#[derive(Clone, Debug)]
+pub struct CurveValues {
+    pub name: String,
+    pub x: String,
+    pub x_unit: String,
+    pub unit: String,
+    /// (grid point, value) where x entered the cell; NaN where it did not.
+    pub points: Vec<(f64, f64)>,
+    pub file: Option<PathBuf>,
+}
+
+/// Where `simulate --out PATH` writes curve `name`: beside the trajectory, `STEM.NAME.csv`.
+fn curve_path(trajectory: &std::path::Path, name: &str) -> PathBuf {
+    let stem = trajectory.file_stem().unwrap_or_default().to_string_lossy();
+    trajectory.with_file_name(format!("{stem}.{name}.csv"))
+}
+
 /// What a run did and measured.
 #[derive(Clone, Debug)]
 pub struct SimulateReport {
@@ -115,6 +133,7 @@ pub struct SimulateReport {
     /// (snapshots, path) of the drawing written.
     pub drawing: Option<(usize, PathBuf)>,
     pub probes: Vec<ProbeValue>,
+    pub curves: Vec<CurveValues>,
     /// The failure that ended the run early, if any.
     pub error: Option<String>,
     /// The deepest overlap at t = 0 beyond what the scheme admits: what, and how deep (m).
@@ -151,18 +170,25 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
     let start = Instant::now();
     // the trajectory and the drawing follow the main (fine) branch; the work counts both
     let mut work = Work::default();
-    let run = run_probes(sim, &scene.probes, duration, false, |s, r, branch| {
-        if branch == Branch::Main {
-            if recording && s.stats.steps % every == 0 {
-                traj.record(s);
+    let run = run_probes(
+        sim,
+        &scene.probes,
+        &scene.curves,
+        duration,
+        false,
+        |s, r, branch| {
+            if branch == Branch::Main {
+                if recording && s.stats.steps % every == 0 {
+                    traj.record(s);
+                }
+                take_snapshots(s);
             }
-            take_snapshots(s);
-        }
-        work.newton += r.newton_iterations as u64;
-        work.sweeps += r.solver.iterations as u64;
-        work.passes += r.active_set_passes as u64;
-        work.contacts += r.active_contacts as u64;
-    });
+            work.newton += r.newton_iterations as u64;
+            work.sweeps += r.solver.iterations as u64;
+            work.passes += r.active_set_passes as u64;
+            work.contacts += r.active_contacts as u64;
+        },
+    );
     let wall_seconds = start.elapsed().as_secs_f64();
     let sim = &run.sim;
     let trajectory = match &options.trajectory {
@@ -188,6 +214,36 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
             Some((snapshots.len(), d.path.clone()))
         }
     };
+    let mut curves = Vec::new();
+    for (c, values) in scene.curves.iter().zip(&run.curves) {
+        let points: Vec<(f64, f64)> = values
+            .iter()
+            .enumerate()
+            .map(|(i, y)| (c.grid.point(i), *y))
+            .collect();
+        let file = match &options.trajectory {
+            None => None,
+            Some(path) => {
+                let file = curve_path(path, &c.name);
+                let mut text = format!("{} [{}], {} [{}]\n", c.x_name, c.x_unit, c.name, c.unit)
+                    .replace(" [1]", "");
+                for (x, y) in points.iter().filter(|p| p.1.is_finite()) {
+                    text.push_str(&format!("{x}, {y}\n"));
+                }
+                std::fs::write(&file, text)
+                    .with_context(|| format!("writing {}", file.display()))?;
+                Some(file)
+            }
+        };
+        curves.push(CurveValues {
+            name: c.name.clone(),
+            x: c.x_name.clone(),
+            x_unit: c.x_unit.clone(),
+            unit: c.unit.clone(),
+            points,
+            file,
+        });
+    }
     let refine = sim.schedule.refine.as_ref();
     let probes = scene
         .probes
@@ -230,6 +286,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
         trajectory,
         drawing,
         probes,
+        curves,
         error: run.error.map(|e| match &overlap {
             // the modelling error, not its symptom, comes first
             Some((what, depth)) => format!(
@@ -359,6 +416,39 @@ impl fmt::Display for SimulateReport {
             for p in &self.probes {
                 if let Some(c) = &p.caution {
                     writeln!(f, "(!) {}: {c}", p.name)?;
+                }
+            }
+        }
+        if self.error.is_none() && !self.curves.is_empty() {
+            writeln!(f, "curves")?;
+            for c in &self.curves {
+                let with: Vec<&(f64, f64)> = c.points.iter().filter(|p| p.1.is_finite()).collect();
+                let (lo, hi) = with
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                        (a.min(p.1), b.max(p.1))
+                    });
+                let unit = |u: &str| {
+                    if u == "1" {
+                        String::new()
+                    } else {
+                        format!(" {u}")
+                    }
+                };
+                write!(
+                    f,
+                    "  {}  {} of {} grid points of {} have a value",
+                    c.name,
+                    with.len(),
+                    c.points.len(),
+                    c.x
+                )?;
+                if !with.is_empty() {
+                    write!(f, ", from {lo:.6e} to {hi:.6e}{}", unit(&c.unit))?;
+                }
+                match &c.file {
+                    Some(p) => writeln!(f, " → {}", p.display())?,
+                    None => writeln!(f, " (--out writes it)")?,
                 }
             }
         }

@@ -225,6 +225,7 @@ impl Study {
         samples: Option<u64>,
     ) -> Result<Study, StudyError> {
         let scene_path = base.join(&spec.scene.value);
+        let from_files = scene_text.is_none();
         let scene_text = match scene_text {
             Some(t) => t.to_string(),
             None => crate::input::file::read(&scene_path).map_err(|e| {
@@ -237,6 +238,13 @@ impl Study {
         };
         let mut subject = Subject::from_yaml(&scene_text, &scene_path.display().to_string())
             .map_err(StudyError::Scene)?;
+        // a study loaded from its files reads its curves' measured points; one rebuilt
+        // from the texts stored with its results finds them in the result directory
+        let references = match from_files {
+            true => super::curves::read_references(subject.curves(), &scene_path)
+                .map_err(StudyError::Scene)?,
+            false => Vec::new(),
+        };
         let n = sample_count(&spec, samples)?;
         let kind = match &spec.design {
             None => DesignKind::Random,
@@ -313,6 +321,7 @@ impl Study {
             output_dir,
             suspect_fails,
             reliability,
+            references,
         })
     }
 }

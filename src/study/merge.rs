@@ -141,8 +141,9 @@ pub fn merge(out: &Path, allow_partial: bool) -> Result<Merged> {
         .metadata
         .insert("mc_study.complete".into(), missing.is_empty().to_string());
     let study = stored_study(&manifest, &table)?;
-    let summary =
-        Summary::of(&manifest.study_name, &table, &study.outputs).with_inputs(&study.parameters);
+    let summary = Summary::of(&manifest.study_name, &table, &study.outputs)
+        .with_inputs(&study.parameters)
+        .with_curves(&table, study.subject.curves());
     let path = out.join("results.parquet");
     let _dir = DirLock::acquire(out)?;
     // a slow merge of fewer parts must not replace the result of a later, fuller one

@@ -5,6 +5,7 @@
 mod build;
 pub mod converge;
 pub mod copula;
+pub mod curves;
 pub mod design;
 pub mod distribution;
 pub mod given_data;
@@ -121,6 +122,9 @@ pub struct Study {
     pub allocation: Option<AllocationTarget>,
     /// For the runs of an adaptive search (the worst case) rather than of the design.
     pub search: Option<Search>,
+    /// The measured points of the curves that name a `reference`, read from their files
+    /// (empty for a study rebuilt from the texts stored with its results).
+    pub references: Vec<curves::Reference>,
 }
 
 /// An adaptive search run as a study: its kind and the most runs it may take.

@@ -216,6 +216,18 @@ impl Study {
                 .collect(),
             tagged: self.reliability.is_some() || self.search.is_some(),
             optional: self.outputs.iter().any(|o| o.optional),
+            curves: self
+                .subject
+                .curves()
+                .iter()
+                .map(|c| store::CurveColumn {
+                    name: c.name.clone(),
+                    unit: c.unit.clone(),
+                    x: c.x_name.clone(),
+                    x_unit: c.x_unit.clone(),
+                    grid: c.grid,
+                })
+                .collect(),
         }
     }
 
@@ -264,6 +276,7 @@ impl Study {
             if let Some(why) = o.suspect.take() {
                 o.error = Some(format!("suspect: {why}"));
                 o.outputs.iter_mut().for_each(|v| *v = f64::NAN);
+                o.curves.iter_mut().for_each(Vec::clear);
             }
         }
         Row {
@@ -277,6 +290,7 @@ impl Study {
             }),
             error: o.error,
             suspect: o.suspect,
+            curves: o.curves,
             tag: None,
         }
     }
@@ -501,6 +515,7 @@ pub fn run_rows(
     let start = Instant::now();
     let out = opts.out.as_path();
     let (done_before, _shard_lock) = prepare(study, out, opts.shard)?;
+    super::curves::write_references(out, &study.references)?;
     let (a, b) = opts.shard.range(end - first);
     let (a, b) = (first + a, first + b);
     let pending = done_before.missing_in(a, b);

@@ -35,6 +35,8 @@ pub struct Outcome {
     pub suspect: Option<String>,
     /// The optional outputs without a value (NaN there), each by index with why.
     pub missing: Vec<(usize, String)>,
+    /// Every curve of the subject on its grid; empty lists when the run failed.
+    pub curves: Vec<Vec<f64>>,
 }
 
 /// Why a run that finished is not to be trusted as it stands, if it is not: steps that did
@@ -120,6 +122,26 @@ impl Subject {
         }
     }
 
+    /// The curves every run of the subject draws.
+    pub fn curves(&self) -> &[crate::probe::curve::Curve] {
+        match self {
+            Subject::Mechanism(s) => &s.curves,
+            Subject::Function(_) => &[],
+        }
+    }
+
+    /// The scene's implausible values, as its load found them.
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            Subject::Mechanism(s) => &s.warnings,
+            Subject::Function(_) => &[],
+        }
+    }
+
+    fn curve_count(&self) -> usize {
+        self.curves().len()
+    }
+
     /// The dimension of a parameter path (`None`: a function input, any unit).
     pub fn parameter_dim(&self, path: &str) -> Result<Option<Dim>, String> {
         match self {
@@ -156,6 +178,10 @@ impl Subject {
                 }
             })
             .collect();
+        let curves = self.curve_count();
+        if o.error.is_some() || o.curves.len() != curves {
+            o.curves = vec![Vec::new(); curves];
+        }
         o.missing = std::mem::take(&mut o.missing)
             .into_iter()
             .filter_map(|(k, why)| Some((selected.iter().position(|&s| s == k)?, why)))
@@ -185,6 +211,7 @@ impl Subject {
                     error,
                     suspect: None,
                     missing: Vec::new(),
+                    curves: Vec::new(),
                 }
             }
             Subject::Mechanism(scene) => {
@@ -197,7 +224,14 @@ impl Subject {
                     Err(e) => return failed(Diagnostics::default(), e.to_string()),
                 };
                 let initial_overlap = sim.deepest_overlap();
-                let run = run_probes(sim, &scene.probes, scene.duration, true, |_, _, _| {});
+                let run = run_probes(
+                    sim,
+                    &scene.probes,
+                    &scene.curves,
+                    scene.duration,
+                    true,
+                    |_, _, _| {},
+                );
                 let st = run.stats;
                 let diagnostics = Diagnostics {
                     steps: st.steps,
@@ -233,6 +267,7 @@ impl Subject {
                         error: None,
                         suspect,
                         missing,
+                        curves: run.curves,
                     },
                     // the fault explains a failure better than its symptom does
                     (Err(e), Some(why)) => {
@@ -253,5 +288,6 @@ fn failed(diagnostics: Diagnostics, error: String) -> Outcome {
         error: Some(error),
         suspect: None,
         missing: Vec::new(),
+        curves: Vec::new(),
     }
 }

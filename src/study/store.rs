@@ -4,8 +4,12 @@
 //! resumed run) sees a whole file or none.
 
 use super::sample_run::Diagnostics;
+use crate::probe::curve::Grid;
 use anyhow::{bail, Context, Result};
-use arrow_array::{Array, ArrayRef, Float64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_array::builder::{Float64Builder, ListBuilder};
+use arrow_array::{
+    Array, ArrayRef, Float64Array, ListArray, RecordBatch, StringArray, UInt64Array,
+};
 use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::ArrowWriter;
@@ -31,6 +35,9 @@ pub struct Row {
     /// Why optional outputs of a run that went through have no value (the `missing`
     /// column).
     pub missing: Option<String>,
+    /// Each curve's values on its grid (NaN, stored as null, where its x never was);
+    /// empty for a failed sample.
+    pub curves: Vec<Vec<f64>>,
     /// Where the run sits in an adaptive (rare-event) study; `None` in a plain one.
     pub tag: Option<Tag>,
 }
@@ -72,6 +79,65 @@ pub struct Columns {
     /// Some outputs are optional: the rows carry the `missing` column.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub optional: bool,
+    /// The curve columns, after the outputs.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub curves: Vec<CurveColumn>,
+}
+
+/// A curve column: per sample, y's values on a grid of x.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CurveColumn {
+    pub name: String,
+    /// SI unit of y.
+    pub unit: String,
+    /// The probe whose measure is x, and its SI unit.
+    pub x: String,
+    pub x_unit: String,
+    pub grid: Grid,
+}
+
+impl CurveColumn {
+    /// The list column's field: y's unit, and x, its unit and the grid in its metadata.
+    fn field(&self) -> Field {
+        let item = Arc::new(Field::new("item", DataType::Float64, true));
+        let f = field(&self.name, DataType::List(item), true, "curve", &self.unit);
+        let mut meta = f.metadata().clone();
+        meta.extend([
+            ("x".to_string(), self.x.clone()),
+            ("x_unit".to_string(), self.x_unit.clone()),
+            ("grid_start".to_string(), self.grid.start.to_string()),
+            ("grid_step".to_string(), self.grid.step.to_string()),
+            ("grid_count".to_string(), self.grid.count.to_string()),
+        ]);
+        f.with_metadata(meta)
+    }
+
+    /// The column a field written by [`CurveColumn::field`] describes.
+    fn of_field(f: &Field) -> Result<CurveColumn> {
+        let meta = f.metadata();
+        let get = |k: &str| {
+            meta.get(k)
+                .with_context(|| format!("curve column `{}` lacks its `{k}`", f.name()))
+        };
+        let number = |k: &str| -> Result<f64> {
+            get(k)?
+                .parse()
+                .with_context(|| format!("curve column `{}`: `{k}` is not a number", f.name()))
+        };
+        Ok(CurveColumn {
+            name: f.name().clone(),
+            unit: meta.get("unit").cloned().unwrap_or_default(),
+            x: get("x")?.clone(),
+            x_unit: get("x_unit")?.clone(),
+            grid: Grid {
+                start: number("grid_start")?,
+                step: number("grid_step")?,
+                count: get("grid_count")?.parse().with_context(|| {
+                    format!("curve column `{}`: `grid_count` is not a count", f.name())
+                })?,
+            },
+        })
+    }
 }
 
 /// Diagnostic columns: (name, unit, description).
@@ -147,6 +213,9 @@ impl Columns {
         for (n, u) in &self.outputs {
             fields.push(field(n, DataType::Float64, true, "output", u));
         }
+        for c in &self.curves {
+            fields.push(c.field());
+        }
         for (n, u, _) in DIAGNOSTICS {
             let ty = if matches!(n, "steps" | "nonconverged_steps") {
                 DataType::UInt64
@@ -187,6 +256,33 @@ impl Columns {
                 .map(|r| Some(r.outputs[k]).filter(|x| !x.is_nan()))
                 .collect();
             cols.push(Arc::new(v));
+        }
+        for (k, c) in self.curves.iter().enumerate() {
+            let mut list =
+                ListBuilder::new(Float64Builder::with_capacity(rows.len() * c.grid.count))
+                    .with_field(Arc::new(Field::new("item", DataType::Float64, true)));
+            for r in rows {
+                match r.curves.get(k).filter(|v| !v.is_empty()) {
+                    Some(v) => {
+                        if v.len() != c.grid.count {
+                            bail!(
+                                "sample {}: curve `{}` has {} points, its grid {}",
+                                r.id,
+                                c.name,
+                                v.len(),
+                                c.grid.count
+                            );
+                        }
+                        for x in v {
+                            list.values()
+                                .append_option(Some(*x).filter(|x| !x.is_nan()));
+                        }
+                        list.append(true);
+                    }
+                    None => list.append(false),
+                }
+            }
+            cols.push(Arc::new(list.finish()));
         }
         cols.push(u64s(&|r| r.diagnostics.steps));
         cols.push(f64s(&|r| r.diagnostics.max_penetration));
@@ -331,6 +427,21 @@ fn column<'a, T: 'static>(batch: &'a RecordBatch, name: &str) -> Result<&'a T> {
         .with_context(|| format!("column `{name}` is missing or has the wrong type"))
 }
 
+/// The values of a list cell (NaN for a null value; empty for a null list).
+fn list_values(list: &ListArray, i: usize) -> Result<Vec<f64>> {
+    if list.is_null(i) {
+        return Ok(Vec::new());
+    }
+    let cell = list.value(i);
+    let v = cell
+        .as_any()
+        .downcast_ref::<Float64Array>()
+        .context("a curve's values are not 64-bit floats")?;
+    Ok((0..v.len())
+        .map(|j| if v.is_null(j) { f64::NAN } else { v.value(j) })
+        .collect())
+}
+
 /// Reads a study file written by [`write`].
 pub fn read(path: &Path) -> Result<Table> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
@@ -353,11 +464,19 @@ pub fn read(path: &Path) -> Result<Table> {
             .map(|f| (f.name().clone(), unit(f)))
             .collect()
     };
+    let curves = schema
+        .fields()
+        .iter()
+        .filter(|f| role(f) == "curve")
+        .map(|f| CurveColumn::of_field(f))
+        .collect::<Result<Vec<_>>>()
+        .with_context(|| format!("reading {}", path.display()))?;
     let columns = Columns {
         inputs: pick("input"),
         outputs: pick("output"),
         tagged: !pick("tag").is_empty(),
         optional: !pick("missing").is_empty(),
+        curves,
     };
     let mut rows = Vec::new();
     for batch in builder.build()? {
@@ -372,6 +491,11 @@ pub fn read(path: &Path) -> Result<Table> {
             .outputs
             .iter()
             .map(|(n, _)| column(&batch, n))
+            .collect::<Result<_>>()?;
+        let curves: Vec<&ListArray> = columns
+            .curves
+            .iter()
+            .map(|c| column(&batch, &c.name))
             .collect::<Result<_>>()?;
         let steps = column::<UInt64Array>(&batch, "steps")?;
         let pen = column::<Float64Array>(&batch, "max_penetration")?;
@@ -425,6 +549,11 @@ pub fn read(path: &Path) -> Result<Table> {
                 missing: missing
                     .filter(|m| !m.is_null(i))
                     .map(|m| m.value(i).to_string()),
+                curves: curves
+                    .iter()
+                    .map(|c| list_values(c, i))
+                    .collect::<Result<_>>()
+                    .with_context(|| format!("{}: sample {}", path.display(), ids.value(i)))?,
                 tag: tags.map(|(b, s, l, c, m)| Tag {
                     batch: b.value(i),
                     stage: s.value(i).to_string(),

@@ -216,6 +216,9 @@ pub struct Summary {
     /// Their reasons with counts, most frequent first.
     #[serde(default)]
     pub suspicions: Vec<(String, u64)>,
+    /// The curves' pointwise median and 5–95 % band.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub curves: Vec<super::curves::CurveSummary>,
 }
 
 /// `text` without its ` (…)` parts: the kind of a reason, without its figures.
@@ -392,6 +395,7 @@ impl Summary {
             failures,
             suspect: suspicions.iter().map(|(_, n)| n).sum(),
             suspicions,
+            curves: Vec::new(),
         }
     }
 
@@ -410,6 +414,13 @@ impl Summary {
                 }
             })
             .collect();
+        self
+    }
+
+    /// The summary with the curves of `table`, shown in the units `curves` (the scene's)
+    /// ask for.
+    pub fn with_curves(mut self, table: &Table, curves: &[crate::probe::curve::Curve]) -> Summary {
+        self.curves = super::curves::CurveSummary::all(table, curves);
         self
     }
 
