@@ -610,6 +610,30 @@ impl fmt::Display for Summary {
                 let _ = writeln!(s, "  {:w$}  {list}", o.name);
             }
         }
+        for c in &self.curves {
+            let median: Vec<f64> = c.median.iter().flatten().copied().collect();
+            let (lo, hi) = median
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(*v), b.max(*v))
+                });
+            let show = |v: f64| format!("{:.4}", v * c.display_factor);
+            let _ = write!(
+                s,
+                "curve {}: {} samples on {} grid points of {}",
+                c.name, c.samples, c.grid.count, c.x
+            );
+            let _ = match median.len() {
+                0 => writeln!(s, ", none with a value"),
+                n => writeln!(
+                    s,
+                    "; median from {} to {} {} over the {n} points with a value (band and measured points: `mc-study report`)",
+                    show(lo),
+                    show(hi),
+                    c.display_unit
+                ),
+            };
+        }
         for o in &self.outputs {
             if let Some(c) = &o.caution {
                 let _ = writeln!(s, "(!) {}: {c}", o.name);
