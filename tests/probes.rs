@@ -273,20 +273,24 @@ fn a_curve_is_the_mean_of_y_over_each_cell_of_x() {
   - { name: fall, curve: { x: height, y: speed, grid: "200 mm .. 950 mm step 50 mm" } }
 "#;
     let text = ball(0.0, probes).replace("duration: 2 s", "duration: 0.42 s");
-    let scene = mc_study::scene::Scene::from_yaml(&text, "probe-ball.yaml").unwrap();
-    let sim = scene.simulation().unwrap();
-    let run = mc_study::probe::run::run_probes(
-        sim,
-        &scene.probes,
-        &scene.curves,
-        0.42,
-        false,
-        |_, _, _| {},
-    );
-    assert!(run.error.is_none());
+    // the curves of a 0.42 s run of the scene `text`
+    let curves = |text: &str| {
+        let scene = mc_study::scene::Scene::from_yaml(text, "probe-ball.yaml").unwrap();
+        let sim = scene.simulation().unwrap();
+        let run = mc_study::probe::run::run_probes(
+            sim,
+            &scene.probes,
+            &scene.curves,
+            0.42,
+            false,
+            |_, _, _| {},
+        );
+        assert!(run.error.is_none());
+        run.curves
+    };
     let g = 9.81;
     let t = |z: f64| (2.0 * (1.0 - z) / g).sqrt();
-    let curve = &run.curves[0];
+    let curve = &curves(&text)[0];
     assert_eq!(curve.len(), 16);
     for (i, v) in curve.iter().enumerate() {
         let z = 0.2 + 0.05 * i as f64;
@@ -298,17 +302,8 @@ fn a_curve_is_the_mean_of_y_over_each_cell_of_x() {
     }
     // the ball never goes below its radius: the cells beneath stay empty
     let low = text.replace("200 mm .. 950 mm", "0 mm .. 950 mm");
-    let scene = mc_study::scene::Scene::from_yaml(&low, "probe-ball.yaml").unwrap();
-    let sim = scene.simulation().unwrap();
-    let run = mc_study::probe::run::run_probes(
-        sim,
-        &scene.probes,
-        &scene.curves,
-        0.42,
-        false,
-        |_, _, _| {},
-    );
-    assert!(run.curves[0][0].is_nan() && run.curves[0][1].is_nan());
+    let low = &curves(&low)[0];
+    assert!(low[0].is_nan() && low[1].is_nan());
 }
 
 #[test]

@@ -67,31 +67,25 @@ pub fn views(
         .collect()
 }
 
-fn x_scale(s: &CurveSummary) -> DisplayUnit {
-    DisplayUnit {
-        label: s.x_display_unit.clone(),
-        per_si: s.x_display_factor,
-    }
-}
-
-fn y_scale(s: &CurveSummary) -> DisplayUnit {
-    DisplayUnit {
-        label: s.display_unit.clone(),
-        per_si: s.display_factor,
-    }
-}
-
 /// One figure per curve.
 pub fn figures(views: &[CurveView], dir: &Path, out: &mut Vec<FigureFile>) -> Result<()> {
     for v in views {
         let s = &v.summary;
+        let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
         let band = (0..s.grid.count)
-            .filter_map(|i| Some((s.grid.point(i), s.p05[i]?, s.median[i]?, s.p95[i]?)))
+            .map(|i| {
+                (
+                    s.grid.point(i),
+                    nan(s.p05[i]),
+                    nan(s.median[i]),
+                    nan(s.p95[i]),
+                )
+            })
             .collect();
         let nominal = v.nominal.as_ref().ok().map(|n| {
             n.iter()
                 .enumerate()
-                .map(|(i, y)| (s.grid.point(i), y.unwrap_or(f64::NAN)))
+                .map(|(i, y)| (s.grid.point(i), nan(*y)))
                 .collect()
         });
         let measured = match &v.reference {
@@ -103,9 +97,9 @@ pub fn figures(views: &[CurveView], dir: &Path, out: &mut Vec<FigureFile>) -> Re
             &CurveFigure {
                 title: title.clone(),
                 x_name: &s.x,
-                x_scale: x_scale(s),
+                x_scale: s.x_display(),
                 y_name: &s.name,
-                y_scale: y_scale(s),
+                y_scale: s.display(),
                 band,
                 nominal,
                 reference: measured,
@@ -124,7 +118,7 @@ pub fn figures(views: &[CurveView], dir: &Path, out: &mut Vec<FigureFile>) -> Re
 /// The sentence that says how far the measured points lie from the median.
 pub fn describe(v: &CurveView) -> Option<String> {
     let s = &v.summary;
-    let (y, x) = (y_scale(s), x_scale(s));
+    let (y, x) = (s.display(), s.x_display());
     let show = |u: &DisplayUnit, si: f64| {
         format!("{} {}", significant(si * u.per_si), u.label)
             .trim_end()

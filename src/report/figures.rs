@@ -3,6 +3,7 @@
 //! machine without system fonts draws readable axes; the SVG leaves text to the browser.
 
 use crate::input::units::DisplayUnit;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -250,6 +251,39 @@ impl Figure for EcdfFigure<'_> {
     }
 }
 
+/// A chart of two real axes.
+type XyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A titled chart of y against x on [x0, x1] × [y0, y1] (display units), its axes
+/// headed by name and unit.
+fn xy_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    (x_name, x_scale): (&str, &DisplayUnit),
+    (y_name, y_scale): (&str, &DisplayUnit),
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<XyChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, TITLE))
+        .margin(12)
+        .x_label_area_size(52)
+        .y_label_area_size(88)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_scale.heading(x_name))
+        .y_desc(y_scale.heading(y_name))
+        .x_label_formatter(&tick_format(x0, x1))
+        .y_label_formatter(&tick_format(y0, y1))
+        .x_labels(6)
+        .y_labels(6)
+        .label_style((FONT, TICKS))
+        .axis_desc_style((FONT, AXIS))
+        .draw()?;
+    Ok(chart)
+}
+
 /// An output against an input, with their correlation in the title.
 pub struct ScatterFigure<'a> {
     pub title: String,
@@ -277,23 +311,14 @@ impl Figure for ScatterFigure<'_> {
         };
         let (x0, x1) = range(|p| p.0);
         let (y0, y1) = range(|p| p.1);
-        let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, TITLE))
-            .margin(12)
-            .x_label_area_size(52)
-            .y_label_area_size(88)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc(self.x_scale.heading(self.x_name))
-            .y_desc(self.y_scale.heading(self.y_name))
-            .x_label_formatter(&tick_format(x0, x1))
-            .y_label_formatter(&tick_format(y0, y1))
-            .x_labels(6)
-            .y_labels(6)
-            .label_style((FONT, TICKS))
-            .axis_desc_style((FONT, AXIS))
-            .draw()?;
+        let mut chart = xy_chart(
+            area,
+            &self.title,
+            (self.x_name, &self.x_scale),
+            (self.y_name, &self.y_scale),
+            (x0, x1),
+            (y0, y1),
+        )?;
         let radius = if pts.len() > 5000 { 1 } else { 2 };
         chart.draw_series(
             pts.iter()
@@ -646,7 +671,8 @@ pub struct CurveFigure<'a> {
     pub x_scale: DisplayUnit,
     pub y_name: &'a str,
     pub y_scale: DisplayUnit,
-    /// Grid points (SI) with the band's (low, median, high) there, where the band exists.
+    /// Each grid point (SI) with the band's (low, median, high) there, NaN where the
+    /// curves have no value.
     pub band: Vec<(f64, f64, f64, f64)>,
     /// The nominal run on the grid (SI; NaN where it has no value).
     pub nominal: Option<Vec<(f64, f64)>>,
@@ -673,9 +699,10 @@ impl Figure for CurveFigure<'_> {
         area.fill(&WHITE)?;
         let (kx, ky) = (self.x_scale.per_si, self.y_scale.per_si);
         let nominal = self.nominal.as_deref().unwrap_or(&[]);
-        let xs = self
-            .band
+        let pieces = runs(&self.band, |b| b.2.is_finite());
+        let xs = pieces
             .iter()
+            .flatten()
             .map(|b| b.0)
             .chain(nominal.iter().filter(|p| p.1.is_finite()).map(|p| p.0))
             .chain(self.reference.iter().map(|p| p.0));
@@ -695,37 +722,15 @@ impl Figure for CurveFigure<'_> {
         };
         let (x0, x1) = span(&mut xs.into_iter(), kx);
         let (y0, y1) = span(&mut ys.into_iter(), ky);
-        let mut chart = ChartBuilder::on(area)
-            .caption(&self.title, (FONT, TITLE))
-            .margin(12)
-            .x_label_area_size(52)
-            .y_label_area_size(88)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc(self.x_scale.heading(self.x_name))
-            .y_desc(self.y_scale.heading(self.y_name))
-            .x_label_formatter(&tick_format(x0, x1))
-            .y_label_formatter(&tick_format(y0, y1))
-            .x_labels(6)
-            .y_labels(6)
-            .label_style((FONT, TICKS))
-            .axis_desc_style((FONT, AXIS))
-            .draw()?;
+        let mut chart = xy_chart(
+            area,
+            &self.title,
+            (self.x_name, &self.x_scale),
+            (self.y_name, &self.y_scale),
+            (x0, x1),
+            (y0, y1),
+        )?;
         let scaled = |x: f64, y: f64| (x * kx, y * ky);
-        // the band breaks where the grid has no value: `band` holds the points that have one
-        let step = self
-            .band
-            .windows(2)
-            .map(|w| w[1].0 - w[0].0)
-            .fold(f64::MAX, f64::min);
-        let mut pieces: Vec<Vec<(f64, f64, f64, f64)>> = Vec::new();
-        for b in &self.band {
-            match pieces.last_mut() {
-                Some(p) if b.0 - p.last().expect("non-empty").0 <= step * 1.5 => p.push(*b),
-                _ => pieces.push(vec![*b]),
-            }
-        }
         for (i, run) in pieces.iter().enumerate() {
             let outline: Vec<(f64, f64)> = run
                 .iter()

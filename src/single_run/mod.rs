@@ -225,11 +225,11 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
             None => None,
             Some(path) => {
                 let file = curve_path(path, &c.name);
-                let mut text = format!("{} [{}], {} [{}]\n", c.x_name, c.x_unit, c.name, c.unit)
+                let header = format!("{} [{}], {} [{}]", c.x_name, c.x_unit, c.name, c.unit)
                     .replace(" [1]", "");
-                for (x, y) in points.iter().filter(|p| p.1.is_finite()) {
-                    text.push_str(&format!("{x}, {y}\n"));
-                }
+                let with: Vec<(f64, f64)> =
+                    points.iter().copied().filter(|p| p.1.is_finite()).collect();
+                let text = crate::study::curves::points_csv(&header, &with);
                 std::fs::write(&file, text)
                     .with_context(|| format!("writing {}", file.display()))?;
                 Some(file)

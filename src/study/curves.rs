@@ -31,13 +31,9 @@ pub fn read_references(curves: &[Curve], scene_path: &Path) -> Result<Vec<Refere
     for c in curves {
         let Some(r) = &c.reference else { continue };
         let file = scene_path.parent().unwrap_or(Path::new("")).join(&r.file);
-        let dim = |u: &str| Dim::of_unit(u).unwrap_or(Dim::NONE);
-        let points = crate::input::file::read(&file)
-            .and_then(|text| parse_reference(&text, dim(&c.x_unit), dim(&c.unit)))
-            .map_err(|e| {
-                SceneError::at(r.line, r.field.clone(), format!("{}: {e}", file.display()))
-                    .in_file(&scene_path.display().to_string())
-            })?;
+        let points = read_reference(&file, &c.x_unit, &c.unit).map_err(|e| {
+            SceneError::at(r.line, r.field.clone(), e).in_file(&scene_path.display().to_string())
+        })?;
         out.push(Reference {
             curve: c.name.clone(),
             file,
@@ -53,6 +49,16 @@ pub fn reference_path(out: &Path, name: &str) -> PathBuf {
     out.join("reference").join(format!("{name}.csv"))
 }
 
+/// A reference file's text: `header`, then one `x, y` line per point (SI, every digit
+/// kept).
+pub fn points_csv(header: &str, points: &[(f64, f64)]) -> String {
+    let mut text = format!("{header}\n");
+    for (x, y) in points {
+        text.push_str(&format!("{x}, {y}\n"));
+    }
+    text
+}
+
 /// Writes each reference into the result directory, in SI units (atomically: a temporary
 /// name, then a rename).
 pub fn write_references(out: &Path, references: &[Reference]) -> anyhow::Result<()> {
@@ -60,14 +66,12 @@ pub fn write_references(out: &Path, references: &[Reference]) -> anyhow::Result<
         let path = reference_path(out, &r.curve);
         let dir = path.parent().expect("a directory");
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let mut text = format!(
-            "# measured points of curve `{}` in SI units, from {}\nx, y\n",
+        let header = format!(
+            "# measured points of curve `{}` in SI units, from {}\nx, y",
             r.curve,
             r.file.display()
         );
-        for (x, y) in &r.points {
-            text.push_str(&format!("{x}, {y}\n"));
-        }
+        let text = points_csv(&header, &r.points);
         let tmp = dir.join(format!(".{}.{}.tmp", r.curve, std::process::id()));
         std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
         std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
@@ -84,12 +88,16 @@ pub fn stored_reference(
     if !path.exists() {
         return None;
     }
+    Some(read_reference(&path, &c.x_unit, &c.unit))
+}
+
+/// The points of reference file `path`, for x and y of SI units `x_unit` and `y_unit`;
+/// the error names the file.
+fn read_reference(path: &Path, x_unit: &str, y_unit: &str) -> Result<Vec<(f64, f64)>, String> {
     let dim = |u: &str| Dim::of_unit(u).unwrap_or(Dim::NONE);
-    Some(
-        crate::input::file::read(&path)
-            .and_then(|t| parse_reference(&t, dim(&c.x_unit), dim(&c.unit)))
-            .map_err(|e| format!("{}: {e}", path.display())),
-    )
+    crate::input::file::read(path)
+        .and_then(|t| parse_reference(&t, dim(x_unit), dim(y_unit)))
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// The population of one curve.
@@ -195,6 +203,22 @@ impl CurveSummary {
                 CurveSummary::of(table, k, c, display, x_display)
             })
             .collect()
+    }
+
+    /// The unit y is shown in.
+    pub fn display(&self) -> DisplayUnit {
+        DisplayUnit {
+            label: self.display_unit.clone(),
+            per_si: self.display_factor,
+        }
+    }
+
+    /// The unit x is shown in.
+    pub fn x_display(&self) -> DisplayUnit {
+        DisplayUnit {
+            label: self.x_display_unit.clone(),
+            per_si: self.x_display_factor,
+        }
     }
 
     /// A pointwise statistic at x, linearly interpolated between the grid points around
