@@ -234,6 +234,32 @@ mod cli {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// `paths` shows a value the scene leaves out as the default that applies, or where
+    /// it comes from, in parentheses.
+    #[test]
+    fn paths_show_what_a_left_out_value_stands_for() {
+        let o = mc_study(&["paths", "studies/c60/scene.yaml"]);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let value = |path: &str| {
+            let line = stdout
+                .lines()
+                .find(|l| l.split_whitespace().next() == Some(path))
+                .unwrap_or_else(|| panic!("no `{path}` in:\n{stdout}"));
+            line.split_whitespace()
+                .skip(2)
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        assert_eq!(value("integrator.h"), "5e-6");
+        assert_eq!(value("integrator.theta"), "(0.5)");
+        assert_eq!(value("integrator.newton.tolerance"), "(1e-10)");
+        assert_eq!(value("joints.J1.rim_points"), "(4)");
+        assert_eq!(value("bodies.handle.velocity.x"), "(0)");
+        assert!(value("joints.J1.flange_radius").starts_with("(1.5 × journal_radius"));
+        assert!(!stdout.contains("default"), "{stdout}");
+    }
+
     /// `--set` overrides a parameter as a study would (the probes change accordingly), a
     /// wrong path or unit is refused naming it, and `--svg` draws one panel per snapshot.
     #[test]

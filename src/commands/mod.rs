@@ -98,8 +98,8 @@ pub enum Command {
     Allocate(AllocateArgs),
     /// List every parameter path of a scene, with its unit and value.
     ///
-    /// The paths are the numbers a study or `--set` can vary; "default" marks a value the
-    /// scene leaves out.
+    /// The paths are the numbers a study or `--set` can vary. A value the scene leaves out
+    /// is shown in parentheses: the default that applies, or the rule that gives it.
     Paths(PathsArgs),
     /// Run one simulation of a scene and print its diagnostics and probes.
     ///

@@ -13,6 +13,9 @@ use crate::input::units::Dim;
 use crate::integrator::assembly::{assemble, AssemblyError, Targets};
 use crate::integrator::IntegrationParameters;
 use crate::mechanics::Model;
+
+/// Every how many steps `simulate --out` records where `record.every` is left out.
+pub(super) const RECORD_EVERY: usize = 1;
 use nalgebra::Vector3;
 
 /// Builds the scene of the document `spec` (from `file`), tuned by `tuning`.
@@ -77,7 +80,7 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         .record
         .every
         .as_ref()
-        .map_or(Ok(1), |q| count(q, "record.every"))?;
+        .map_or(Ok(RECORD_EVERY), |q| count(q, "record.every"))?;
     Ok(Scene {
         name: spec.name.clone().unwrap_or_else(|| "scene".into()),
         spec: document,

@@ -14,6 +14,11 @@ use crate::mechanics::joint::{Joint, JointKind};
 use crate::mechanics::{BodyRef, Model};
 use nalgebra::Vector3;
 
+/// Points on each flange's rim where `rim_points` is left out.
+pub(super) const RIM_POINTS: usize = 4;
+/// The axial play (m) where `axial_play` is left out.
+pub(super) const AXIAL_PLAY: f64 = 1e-4;
+
 /// Joint `i`, a revolute joint with clearance, with the journal's initial eccentricity;
 /// with a clearance of 0, the ideal revolute joint it tends to (see [`ideal_limit`]).
 pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<BuiltJoint> {
@@ -34,7 +39,7 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
     let rim = spec
         .rim_points
         .as_ref()
-        .map_or(Ok(4), |q| count(q, &f("rim_points")))?;
+        .map_or(Ok(RIM_POINTS), |q| count(q, &f("rim_points")))?;
     if rim < 3 {
         return Err(SceneError::at(
             spec.rim_points.as_ref().and_then(line),
@@ -92,10 +97,9 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
         journal_axis,
         journal_radius,
         clearance,
-        axial_play: spec
-            .axial_play
-            .as_ref()
-            .map_or(Ok(1e-4), |q| positive(q, Dim::LENGTH, &f("axial_play")))?,
+        axial_play: spec.axial_play.as_ref().map_or(Ok(AXIAL_PLAY), |q| {
+            positive(q, Dim::LENGTH, &f("axial_play"))
+        })?,
         flange_radius,
         rim_points: rim,
         mu: spec

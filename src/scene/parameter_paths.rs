@@ -11,18 +11,46 @@
 //! Each part of the schema lists its numbers here with their dimension, in one
 //! [`Node::visit`]; two visitors walk them: one lists every path, the other finds one.
 
+use super::build::RECORD_EVERY;
+use super::clearance::{AXIAL_PLAY, RIM_POINTS};
+use super::integrator::apply_integrator;
 use super::schema::*;
 use crate::input::units::{Dim, Quantity};
+use crate::integrator::IntegrationParameters;
 use serde_saphyr::{Location, Spanned};
 
-/// A parameter path of a scene with the dimension of its value and its value in the
-/// document (`None` where the document leaves it out and a default applies).
+/// A parameter path of a scene with the dimension of its value, its value in the document
+/// (`None` where the document leaves it out), and what applies where it is left out.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParameterPath {
     pub path: String,
     pub dim: Dim,
     pub value: Option<f64>,
+    pub default: Fallback,
 }
+
+/// What a number the document leaves out stands for: a value (SI), or the rule that
+/// derives it from the rest of the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fallback {
+    Value(f64),
+    Rule(&'static str),
+}
+
+impl std::fmt::Display for Fallback {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fallback::Value(v) => write!(f, "{v}"),
+            Fallback::Rule(r) => f.write_str(r),
+        }
+    }
+}
+
+/// The value of a number the scene needs (`paths` lists it where it is missing, before the
+/// scene is refused).
+const REQUIRED: Fallback = Fallback::Rule("required");
+const NONE: Fallback = Fallback::Value(0.0);
+const DRIVE_TABLE: Fallback = Fallback::Rule("drive.position_table");
 
 /// Something the walk reaches: a part of the document that holds numbers.
 pub(super) trait Node {
@@ -32,8 +60,8 @@ pub(super) trait Node {
 /// What walks the document. The parts call it for each number they hold, and for the
 /// parts below them.
 pub(super) trait Visitor {
-    /// An optional number.
-    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim);
+    /// An optional number, `default` where it is left out.
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim, default: Fallback);
     /// A required number.
     fn required(&mut self, name: &str, q: &mut Q, dim: Dim);
     /// An optional vector, `default` where it is left out (`None`: none makes sense).
@@ -89,18 +117,24 @@ impl Lister {
         p + name
     }
 
-    fn push(&mut self, path: String, dim: Dim, value: Option<f64>) {
-        self.out.push(ParameterPath { path, dim, value });
+    fn push(&mut self, path: String, dim: Dim, value: Option<f64>, default: Fallback) {
+        self.out.push(ParameterPath {
+            path,
+            dim,
+            value,
+            default,
+        });
     }
 }
 
 impl Visitor for Lister {
-    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim) {
-        self.push(self.path(name), dim, q.as_ref().map(|q| q.value.si));
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim, default: Fallback) {
+        let value = q.as_ref().map(|q| q.value.si);
+        self.push(self.path(name), dim, value, default);
     }
 
     fn required(&mut self, name: &str, q: &mut Q, dim: Dim) {
-        self.push(self.path(name), dim, Some(q.value.si));
+        self.push(self.path(name), dim, Some(q.value.si), REQUIRED);
     }
 
     fn vector(&mut self, name: &str, v: &mut Option<Vector>, dim: Dim, default: Option<&[f64]>) {
@@ -108,8 +142,9 @@ impl Visitor for Lister {
             Some(v) => self.required_vector(name, v, dim),
             None => {
                 if let Some(d) = default {
-                    for c in component_names(d.len()) {
-                        self.push(self.path(&format!("{name}.{c}")), dim, None);
+                    for (c, &x) in component_names(d.len()).iter().zip(d) {
+                        let path = self.path(&format!("{name}.{c}"));
+                        self.push(path, dim, None, Fallback::Value(x));
                     }
                 }
             }
@@ -118,7 +153,8 @@ impl Visitor for Lister {
 
     fn required_vector(&mut self, name: &str, v: &mut Vector, dim: Dim) {
         for (c, q) in component_names(v.value.len()).iter().zip(&v.value) {
-            self.push(self.path(&format!("{name}.{c}")), dim, Some(q.si));
+            let path = self.path(&format!("{name}.{c}"));
+            self.push(path, dim, Some(q.si), REQUIRED);
         }
     }
 
@@ -127,7 +163,8 @@ impl Visitor for Lister {
         for (r, row) in t.value.iter().enumerate() {
             for (c, q) in row.iter().enumerate() {
                 if let Some(&dim) = dims.get(c) {
-                    self.push(self.path(&format!("{name}.{r}.{c}")), dim, Some(q.si));
+                    let path = self.path(&format!("{name}.{r}.{c}"));
+                    self.push(path, dim, Some(q.si), REQUIRED);
                 }
             }
         }
@@ -192,7 +229,7 @@ impl Finder<'_> {
 }
 
 impl Visitor for Finder<'_> {
-    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim) {
+    fn scalar(&mut self, name: &str, q: &mut Option<Q>, dim: Dim, _: Fallback) {
         if self.below(name) == Some(&[]) {
             if self.value.is_some() {
                 let mut w = written(0.0);
@@ -364,44 +401,65 @@ impl Node for SceneSpec {
 
 impl Node for IntegratorSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
-        v.scalar("h", &mut self.h, Dim::TIME);
-        v.scalar("theta", &mut self.theta, Dim::NONE);
-        v.scalar("gamma", &mut self.gamma, Dim::NONE);
+        // what the block leaves out is its preset's value, or the engine's
+        let mut p = IntegrationParameters::default();
+        let _ = apply_integrator(self, &mut p, "integrator");
+        let d = Fallback::Value;
+        v.scalar("h", &mut self.h, Dim::TIME, d(p.h));
+        v.scalar("theta", &mut self.theta, Dim::NONE, d(p.theta));
+        v.scalar("gamma", &mut self.gamma, Dim::NONE, d(p.gamma));
+        let margin = d(p.activation_margin);
         v.scalar(
             "activation_margin",
             &mut self.activation_margin,
             Dim::LENGTH,
+            margin,
         );
-        for (name, t) in [
-            ("solver", &mut self.solver),
-            ("newton", &mut self.newton),
-            ("projection", &mut self.projection),
+        for (name, t, (tolerance, iterations)) in [
+            (
+                "solver",
+                &mut self.solver,
+                (p.solver.tolerance, p.solver.max_sweeps),
+            ),
+            (
+                "newton",
+                &mut self.newton,
+                (p.newton_tolerance, p.newton_max_iterations),
+            ),
+            (
+                "projection",
+                &mut self.projection,
+                (p.projection_tolerance, p.projection_max_iterations),
+            ),
         ] {
             let t = t.get_or_insert_with(ToleranceSpec::default);
-            v.node(name, t);
+            v.node(
+                name,
+                &mut With(|v: &mut dyn Visitor| {
+                    v.scalar("tolerance", &mut t.tolerance, Dim::NONE, d(tolerance));
+                    let most = d(iterations as f64);
+                    v.scalar("max_iterations", &mut t.max_iterations, Dim::NONE, most);
+                }),
+            );
         }
-    }
-}
-
-impl Node for ToleranceSpec {
-    fn visit(&mut self, v: &mut dyn Visitor) {
-        v.scalar("tolerance", &mut self.tolerance, Dim::NONE);
-        v.scalar("max_iterations", &mut self.max_iterations, Dim::NONE);
     }
 }
 
 impl Node for RecordSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
-        v.scalar("every", &mut self.every, Dim::NONE);
+        let every = Fallback::Value(RECORD_EVERY as f64);
+        v.scalar("every", &mut self.every, Dim::NONE, every);
     }
 }
 
 impl Node for SettleSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         v.required("until", &mut self.until, Dim::TIME);
-        v.scalar("damping", &mut self.damping, Dim::ANGULAR_VELOCITY);
-        v.scalar("h", &mut self.h, Dim::TIME);
-        v.scalar("tolerance", &mut self.tolerance, Dim::NONE);
+        v.scalar("damping", &mut self.damping, Dim::ANGULAR_VELOCITY, NONE);
+        let h = Fallback::Rule("integrator.h");
+        v.scalar("h", &mut self.h, Dim::TIME, h);
+        let tolerance = Fallback::Rule("integrator.solver.tolerance");
+        v.scalar("tolerance", &mut self.tolerance, Dim::NONE, tolerance);
     }
 }
 
@@ -427,7 +485,7 @@ impl<F: FnMut(&mut dyn Visitor)> Node for With<F> {
 
 impl Node for BodySpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
-        v.scalar("mass", &mut self.mass, Dim::MASS);
+        v.scalar("mass", &mut self.mass, Dim::MASS, REQUIRED);
         v.vector("inertia", &mut self.inertia, Dim::INERTIA, None);
         if let Some(s) = &mut self.shape {
             v.node("shape", &mut s.value);
@@ -471,7 +529,11 @@ impl Node for ShapeSpec {
 impl Node for OrientationSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         v.vector("axis", &mut self.axis, Dim::NONE, None);
-        v.scalar("angle", &mut self.angle, Dim::NONE);
+        let angle = match self.axis {
+            Some(_) => REQUIRED,
+            None => Fallback::Rule("unused: goes with axis"),
+        };
+        v.scalar("angle", &mut self.angle, Dim::NONE, angle);
         v.vector("quaternion", &mut self.quaternion, Dim::NONE, None);
         v.vector(
             "rotation_vector",
@@ -486,8 +548,8 @@ impl Node for ContactSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         v.node("shape", &mut self.shape.value);
         v.node("against_shape", &mut self.against_shape.value);
-        v.scalar("mu", &mut self.mu, Dim::NONE);
-        v.scalar("e", &mut self.e, Dim::NONE);
+        v.scalar("mu", &mut self.mu, Dim::NONE, NONE);
+        v.scalar("e", &mut self.e, Dim::NONE, NONE);
     }
 }
 
@@ -568,7 +630,7 @@ impl Node for PrimitiveSpec {
 impl Node for ProfileSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         const L: Dim = Dim::LENGTH;
-        v.scalar("offset", &mut self.offset, L);
+        v.scalar("offset", &mut self.offset, L, NONE);
         v.required("thickness", &mut self.thickness, L);
         v.vector("start", &mut self.start, L, None);
         v.list(
@@ -625,10 +687,11 @@ impl Node for SpringSpec {
         v.vector("point_a", &mut self.point_a, Dim::LENGTH, Some(&ZERO));
         v.vector("point_b", &mut self.point_b, Dim::LENGTH, Some(&ZERO));
         v.required("stiffness", &mut self.stiffness, Dim::STIFFNESS);
-        v.scalar("damping", &mut self.damping, Dim::DAMPING);
-        v.scalar("rest_length", &mut self.rest_length, Dim::LENGTH);
-        v.scalar("preload", &mut self.preload, Dim::FORCE);
-        v.scalar("ramp", &mut self.ramp, Dim::TIME);
+        v.scalar("damping", &mut self.damping, Dim::DAMPING, NONE);
+        let written = Fallback::Rule("the written length");
+        v.scalar("rest_length", &mut self.rest_length, Dim::LENGTH, written);
+        v.scalar("preload", &mut self.preload, Dim::FORCE, NONE);
+        v.scalar("ramp", &mut self.ramp, Dim::TIME, NONE);
     }
 }
 
@@ -636,11 +699,16 @@ impl Node for TorsionalSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         v.required_vector("axis", &mut self.axis, Dim::NONE);
         v.required("stiffness", &mut self.stiffness, Dim::TORQUE);
-        v.scalar("damping", &mut self.damping, Dim::ROTATIONAL_DAMPING);
-        v.scalar("preload", &mut self.preload, Dim::TORQUE);
-        v.scalar("rest_angle", &mut self.rest_angle, Dim::NONE);
-        v.scalar("free_angle", &mut self.free_angle, Dim::NONE);
-        v.scalar("ramp", &mut self.ramp, Dim::TIME);
+        v.scalar("damping", &mut self.damping, Dim::ROTATIONAL_DAMPING, NONE);
+        v.scalar("preload", &mut self.preload, Dim::TORQUE, NONE);
+        // two ways to give the rest angle: the one left out is not used
+        let (rest, free) = match self.free_angle {
+            Some(_) => (Fallback::Rule("unused: free_angle applies"), NONE),
+            None => (NONE, Fallback::Rule("unused: rest_angle applies")),
+        };
+        v.scalar("rest_angle", &mut self.rest_angle, Dim::NONE, rest);
+        v.scalar("free_angle", &mut self.free_angle, Dim::NONE, free);
+        v.scalar("ramp", &mut self.ramp, Dim::TIME, NONE);
     }
 }
 
@@ -688,23 +756,35 @@ impl Node for JointSpec {
                 &mut With(|v: &mut dyn Visitor| {
                     v.required("lower", &mut l.lower, coordinate);
                     v.required("upper", &mut l.upper, coordinate);
-                    v.scalar("e", &mut l.e, Dim::NONE);
+                    v.scalar("e", &mut l.e, Dim::NONE, NONE);
                 }),
             );
         }
         let clearance = self.kind.value == "revolute-clearance";
-        for (name, q, dim) in [
-            ("clearance", &mut self.clearance, L),
-            ("journal_radius", &mut self.journal_radius, L),
-            ("bore_length", &mut self.bore_length, L),
-            ("axial_play", &mut self.axial_play, L),
-            ("flange_radius", &mut self.flange_radius, L),
-            ("rim_points", &mut self.rim_points, Dim::NONE),
-            ("mu", &mut self.mu, Dim::NONE),
-            ("e", &mut self.e, Dim::NONE),
+        let flange =
+            Fallback::Rule("1.5 × journal_radius, at least journal_radius + 3 × clearance");
+        for (name, q, dim, default) in [
+            ("clearance", &mut self.clearance, L, REQUIRED),
+            ("journal_radius", &mut self.journal_radius, L, REQUIRED),
+            ("bore_length", &mut self.bore_length, L, REQUIRED),
+            (
+                "axial_play",
+                &mut self.axial_play,
+                L,
+                Fallback::Value(AXIAL_PLAY),
+            ),
+            ("flange_radius", &mut self.flange_radius, L, flange),
+            (
+                "rim_points",
+                &mut self.rim_points,
+                Dim::NONE,
+                Fallback::Value(RIM_POINTS as f64),
+            ),
+            ("mu", &mut self.mu, Dim::NONE, NONE),
+            ("e", &mut self.e, Dim::NONE, NONE),
         ] {
             if clearance {
-                v.scalar(name, q, dim);
+                v.scalar(name, q, dim, default);
             } else {
                 let why = format!(
                     "joint `{}` is an ideal {} joint, which has no `{name}`; make it `revolute-clearance` to vary it",
@@ -713,6 +793,12 @@ impl Node for JointSpec {
                 v.absent(name, &why);
             }
         }
+        // (a velocity drive, a position table)
+        let drive = self.drive.as_ref().map(|d| {
+            let d = &d.value;
+            (d.velocity.is_some(), d.position_table.is_some())
+        });
+        let rate_dim = rate;
         let initial = self.initial.get_or_insert_with(|| {
             Spanned::new(InitialSpec::default(), Location::UNKNOWN, Location::UNKNOWN)
         });
@@ -722,12 +808,22 @@ impl Node for JointSpec {
             &mut With(|v: &mut dyn Visitor| {
                 if clearance {
                     v.vector("eccentricity", &mut i.eccentricity, L, Some(&ZERO));
-                } else if prismatic {
-                    v.scalar("position", &mut i.position, L);
-                    v.scalar("speed", &mut i.speed, Dim::VELOCITY);
                 } else {
-                    v.scalar("angle", &mut i.angle, Dim::NONE);
-                    v.scalar("rate", &mut i.rate, Dim::ANGULAR_VELOCITY);
+                    // a joint the scene does not start starts as the written poses and
+                    // velocities do, once assembled; a driven one as its drive has it
+                    let assembled = Fallback::Rule("as assembled");
+                    let (start, rate) = match &drive {
+                        Some((true, _)) => (assembled, Fallback::Rule("drive.velocity")),
+                        Some((_, true)) => (DRIVE_TABLE, DRIVE_TABLE),
+                        _ => (assembled, assembled),
+                    };
+                    let names = match prismatic {
+                        true => [("position", &mut i.position), ("speed", &mut i.speed)],
+                        false => [("angle", &mut i.angle), ("rate", &mut i.rate)],
+                    };
+                    let [(p, position), (r, speed)] = names;
+                    v.scalar(p, position, coordinate, start);
+                    v.scalar(r, speed, rate_dim, rate);
                 }
             }),
         );
@@ -742,7 +838,7 @@ fn visit_drive(v: &mut dyn Visitor, d: &mut DriveSpec, dims: (Dim, Dim, Dim)) {
         "drive",
         &mut With(|v: &mut dyn Visitor| {
             if d.velocity.is_some() {
-                v.scalar("velocity", &mut d.velocity, rate);
+                v.scalar("velocity", &mut d.velocity, rate, NONE);
             }
             v.table(
                 "position_table",
@@ -750,7 +846,7 @@ fn visit_drive(v: &mut dyn Visitor, d: &mut DriveSpec, dims: (Dim, Dim, Dim)) {
                 &[Dim::TIME, coordinate],
             );
             if d.effort.is_some() {
-                v.scalar("effort", &mut d.effort, effort);
+                v.scalar("effort", &mut d.effort, effort, NONE);
             }
             v.table("effort_table", &mut d.effort_table, &[Dim::TIME, effort]);
         }),
@@ -790,9 +886,9 @@ fn visit_convex(
         &mut With(|v: &mut dyn Visitor| {
             v.table("vertices", vertices, &[L, L, L]);
             if has_file {
-                v.scalar("scale", scale, L);
+                v.scalar("scale", scale, L, REQUIRED);
             }
-            v.scalar("rounding", rounding, L);
+            v.scalar("rounding", rounding, L, NONE);
         }),
     );
 }
@@ -914,6 +1010,45 @@ mod tests {
             }
         }
         assert!(checked > 300, "only {checked} paths checked");
+    }
+
+    /// Every default `paths` states as a value, written into the bundled scene that leaves
+    /// it out, builds the same model, integrator, phases and recording: the stated
+    /// defaults are the builder's.
+    #[test]
+    fn stated_defaults_are_the_builder_s() {
+        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+        let built = |spec: SceneSpec| {
+            let s = super::super::build::build(spec, "check", Vec::new()).unwrap();
+            format!(
+                "{:?}",
+                (s.model, s.params, s.schedule, s.record_every, s.duration)
+            )
+        };
+        let mut checked = 0;
+        for entry in std::fs::read_dir(studies).unwrap() {
+            let path = entry.unwrap().path().join("scene.yaml");
+            let text = std::fs::read_to_string(&path).unwrap();
+            let Ok(spec) = serde_saphyr::from_str::<SceneSpec>(&text) else {
+                continue; // a function scene
+            };
+            let base = built(spec.clone());
+            for p in paths(&spec) {
+                let (None, Fallback::Value(d)) = (p.value, p.default) else {
+                    continue;
+                };
+                let mut s = spec.clone();
+                find(&mut s, &p.path, Some(d)).unwrap();
+                assert!(
+                    built(s) == base,
+                    "{}: `{}` written as its stated default {d} builds another scene",
+                    path.display(),
+                    p.path
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 100, "only {checked} defaults checked");
     }
 
     #[test]
