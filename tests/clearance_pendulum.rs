@@ -298,3 +298,31 @@ fn friction_in_a_tight_journal_takes_as_much_energy_at_coarse_steps_as_at_fine_o
         "lost {coarse:.4} J at h = 1e-3, {fine:.4} J at h = 1e-4"
     );
 }
+
+/// Plain Moreau–Jean does not project: at a coarse step the bundled pendulum's journal
+/// sinks into its 70 µm bore by a large part of the clearance, and the sample says so
+/// (`suspect`, naming the clearance). At the bundled fine step, with the combined scheme
+/// the scene uses, it does not.
+#[test]
+fn plain_moreau_jean_sinking_into_a_clearance_is_suspect() {
+    let text = std::fs::read_to_string("studies/pendulum-clearance/scene.yaml").unwrap();
+    let run = |scheme: &str, h: &str| {
+        let yaml = text
+            .replace("scheme: combined-projection", &format!("scheme: {scheme}"))
+            .replace("h: 0.1 ms", &format!("h: {h}"));
+        let subject = mc_study::study::Subject::from_yaml(&yaml, "pendulum-clearance").unwrap();
+        let o = subject.run(&[], &[]);
+        assert!(o.error.is_none(), "{scheme} at {h}: {:?}", o.error);
+        println!(
+            "{scheme} at {h}: penetration {:.3e} m, {:?}",
+            o.diagnostics.max_penetration, o.suspect
+        );
+        o
+    };
+    let coarse = run("moreau-jean", "5 ms");
+    assert!(coarse.diagnostics.max_penetration > 7e-6);
+    let why = coarse.suspect.expect("a coarse plain run is suspect");
+    assert!(why.contains("smallest clearance (7.000e-5 m)"), "{why}");
+    let fine = run("combined-projection", "0.1 ms");
+    assert_eq!(fine.suspect, None);
+}

@@ -1,5 +1,6 @@
 //! The combined scheme's activation loop: contacts enter the velocity problem when the
-//! end-of-step position closes them (the step is redone with them), clearance guards when
+//! end-of-step position closes them or the step jumps across them (`tunnelling.rs`; the
+//! step is redone with them), clearance guards when
 //! the step would carry a journal across its clearance; the joints and the pressed or
 //! penetrating contacts are then projected onto their manifolds.
 
@@ -35,6 +36,8 @@ pub(super) struct ActivationLists {
     /// The active contacts the projection takes, and the candidates that closed.
     pool: Vec<usize>,
     new: Vec<usize>,
+    /// The candidates a pass jumps across, with their linearised end-of-step gaps.
+    crossed: Vec<(usize, f64)>,
     /// Storage for a pass's end-of-step contact points: the points a state held before
     /// its step, or a pass's that a later pass replaced, written over.
     points: Vec<ContactPoint>,
@@ -92,6 +95,8 @@ impl Simulation {
                 (0..after.len())
                     .filter(|&i| !in_active[i] && !self.is_guard(i) && after[i].gap() <= 0.0),
             );
+            self.jumped_across(in_active, &vs, &mut lists.crossed);
+            new.extend(lists.crossed.iter().map(|c| c.0));
             if new.is_empty() {
                 settled = true;
                 if let Some((_, vs, poses, points)) = last.replace((active, vs, poses, after)) {
@@ -104,9 +109,14 @@ impl Simulation {
             // a contact that the first pass (the motion without this step's new impulses)
             // leaves open, and that was not approaching at the start, is knocked shut by
             // another contact's impact
+            let crossed = &lists.crossed;
+            let end_gap = |i: usize| match crossed.iter().find(|c| c.0 == i) {
+                Some(c) => c.1,
+                None => after[i].gap(),
+            };
             closing.extend(new.iter().map(|&i| Closing {
                 candidate: i,
-                end_gap: after[i].gap(),
+                end_gap: end_gap(i),
                 knocked: pass > 1 && self.points[i].normal_velocity(self.state.v.as_slice()) >= 0.0,
             }));
             if let Some((_, vs, poses, points)) = last.replace((active.clone(), vs, poses, after)) {
@@ -278,6 +288,7 @@ mod tests {
                     worst: vec![(7, 7, f64::NAN); 5],
                     pool: vec![39; 12],
                     new: vec![38; 12],
+                    crossed: vec![(37, -1.0); 3],
                     points: donor.contact_points().to_vec(),
                 };
             }

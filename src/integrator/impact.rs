@@ -4,7 +4,7 @@
 
 use super::moreau_jean::VelocityStep;
 use super::projection::ProjectionOutcome;
-use super::simulation::{Outcome, SimError, Simulation, StepReport};
+use super::simulation::{LocatedImpact, Outcome, SimError, Simulation, StepReport};
 use super::subdivision::{Depth, Sum};
 use super::workspace::StepWorkspace;
 
@@ -59,9 +59,12 @@ impl Simulation {
         let mut sum = Sum::new(self);
         // The part before ends a hair (1e-6 of it) short of the contact, which it must not
         // close itself; where the gap's curvature over the step put the estimate past the
-        // contact, the secant on the part just computed corrects it. A part shorter than
-        // 1e-3 h misplaces the bodies by at most 1e-3 h times the jump.
+        // contact or short of it, the secant on the part just computed corrects it. A part
+        // shorter than 1e-3 h misplaces the bodies by at most 1e-3 h times the jump.
         let g0 = self.points[i].gap();
+        // a gap the impact leaves open stays open under a plastic impact (the contact
+        // then holds its load at a distance), so the part must end within a hair of it
+        let open_enough = self.params.activation_margin + 1e-5 * g0;
         let mut s = s * (1.0 - 1e-6);
         let mut tries = 0;
         let before = loop {
@@ -78,8 +81,17 @@ impl Simulation {
                 }
             };
             tries += 1;
-            match part.closing.iter().find(|c| c.candidate == i) {
-                Some(c) if s > 1e-3 && tries < 4 => s *= g0 / (g0 - c.end_gap) * (1.0 - 1e-6),
+            // the contact's gap where the part ends: past the contact where the part
+            // closed it, else short of it by what the part leaves open
+            let end_gap = match part.closing.iter().find(|c| c.candidate == i) {
+                Some(c) => Some(c.end_gap),
+                None => part.points.as_ref().map(|p| p[i].gap()),
+            };
+            let resolved = |g1: f64| g1 >= 0.0 && g1 <= open_enough;
+            match end_gap {
+                Some(g1) if !resolved(g1) && g1 < g0 && s > 1e-3 && tries < 4 => {
+                    s *= g0 / (g0 - g1) * (1.0 - 1e-6)
+                }
                 _ => break part,
             }
         };
@@ -98,6 +110,17 @@ impl Simulation {
             });
         }
         self.record_contacts(&active, &vs);
+        if self.located_impact.is_none() {
+            self.located_impact = Some(LocatedImpact {
+                before: self.state.clone(),
+                v_after: vs.v.clone(),
+                contacts: active
+                    .iter()
+                    .copied()
+                    .filter(|&k| self.impulses[k].x > 0.0)
+                    .collect(),
+            });
+        }
         self.joint_impulses = vs.joint_impulses.clone();
         sum.add(self);
         let impact = impact_report(&vs);

@@ -13,7 +13,9 @@ pub mod projection;
 mod rows;
 pub mod schedule;
 pub mod simulation;
+mod sinking;
 mod subdivision;
+mod tunnelling;
 mod workspace;
 
 pub use params::{IntegrationParameters, Preset, Scheme};

@@ -95,7 +95,7 @@ pub struct VelocityStep {
 
 /// Poses at the end of the step, q₁ = q₀ ⊕ h((1 − θ) v₀ + θ v₁), into `out`, whose
 /// allocation the Newton iterations reuse.
-fn advance_poses_into(
+pub(super) fn advance_poses_into(
     out: &mut Vec<Pose>,
     poses: &[Pose],
     v0: &DVector<f64>,
@@ -341,7 +341,9 @@ impl VelocityStorage {
     /// back could contradict a contact on the other side (the journal's closest point), and
     /// the projection removes what remains. A persistent contact takes no restitution: it
     /// is closed, and what its start-of-step rows show as approach is the turn of its frame
-    /// over the last step (sliding along a concave surface), not an impact.
+    /// over the last step (sliding along a concave surface), not an impact. One still open
+    /// (a plastic impact taken at a gap) takes the gap law's shift: with shift 0 it would
+    /// carry its load at a distance for good.
     fn impact_shifts(
         &mut self,
         start: &StepStart,
@@ -353,10 +355,16 @@ impl VelocityStorage {
         self.shift.clear();
         self.shift.extend(active.iter().enumerate().map(|(k, c)| {
             let u0 = c.point.normal_velocity(start.v0.as_slice());
+            let gap_law = |g: f64| ((g + h * (1.0 - theta) * u0) / (h * theta)).max(0.0);
             if c.point.gap_law && h > 0.0 {
-                ((c.point.gap() + h * (1.0 - theta) * u0) / (h * theta)).max(0.0)
+                gap_law(c.point.gap())
             } else if is_persistent(k) {
-                0.0
+                let g = c.point.gap();
+                if h > 0.0 && g > start.params.admissible_depth() {
+                    gap_law(g)
+                } else {
+                    0.0
+                }
             } else {
                 c.e * u0
             }

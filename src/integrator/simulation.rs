@@ -76,6 +76,18 @@ pub(super) struct Closing {
     pub(super) knocked: bool,
 }
 
+/// The first impact located within a step (`IntegrationParameters::locate_impacts`): when
+/// it happened, the state at that instant with the velocities just before it, the
+/// velocities just after it, and the contacts that took it. A probe reads a value at a
+/// time within the step through it, where interpolating between the step's ends would cut
+/// the corner the impact puts in the motion.
+#[derive(Clone, Debug)]
+pub struct LocatedImpact {
+    pub before: State,
+    pub v_after: DVector<f64>,
+    pub contacts: Vec<usize>,
+}
+
 /// Diagnostics accumulated over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RunStats {
@@ -104,6 +116,10 @@ pub struct RunStats {
     /// Steps whose impacts were taken plastic because, with restitution, the contacts
     /// jammed (`moreau_jean::REACH`).
     pub plastic_steps: u64,
+    /// Steps at whose end a body is past the middle of a part it sank into
+    /// (`sinking.rs`), which a scheme that does not project does where h·v exceeds half
+    /// the part's thickness.
+    pub sank_through: u64,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -178,6 +194,8 @@ pub struct Simulation {
     /// next step starts from them and need not check them again.
     pub(super) checked_poses: Vec<Pose>,
     pub stats: RunStats,
+    /// The first impact located within the last step, if one was.
+    pub(super) located_impact: Option<LocatedImpact>,
     /// The storage the steps reuse (`workspace.rs`), boxed so that a step takes it and
     /// puts it back by moving a pointer.
     pub(super) workspace: Option<Box<StepWorkspace>>,
@@ -238,6 +256,7 @@ impl Simulation {
             schedule,
             state,
             stats: RunStats::default(),
+            located_impact: None,
             workspace: None,
         };
         sim.update_geometry(None, None);
@@ -347,6 +366,11 @@ impl Simulation {
     /// Size of the step being taken, or of the last one taken.
     pub fn h(&self) -> f64 {
         self.h
+    }
+
+    /// The first impact located within the last step (`locate_impacts`), if one was.
+    pub fn located_impact(&self) -> Option<&LocatedImpact> {
+        self.located_impact.as_ref()
     }
 
     /// The end of the refinement window, once it has opened.
@@ -656,7 +680,16 @@ impl Simulation {
     /// must be (`subdivision.rs`): halved where it is not resolved, split at an impact with
     /// `locate_impacts` or where one impact knocks another contact shut.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
-        let (h, ends_at) = self.next_step();
+        self.step_until(f64::INFINITY)
+    }
+
+    /// `step`, its length cut where it would pass `t_end` (a run's end, which need not be
+    /// a multiple of h).
+    pub fn step_until(&mut self, t_end: f64) -> Result<StepReport, SimError> {
+        let (mut h, mut ends_at) = self.next_step();
+        if t_end - self.state.t < h * (1.0 - 1e-9) {
+            (h, ends_at) = (t_end - self.state.t, Some(t_end));
+        }
         if h != self.h {
             self.h = h;
             self.t0 = self.state.t;
@@ -664,6 +697,7 @@ impl Simulation {
         }
         let t_end = ends_at.unwrap_or(self.t0 + (self.stats.steps + 1 - self.n0) as f64 * h);
         let mut ws = self.workspace.take().unwrap_or_default();
+        self.located_impact = None;
         let report = self.advance(t_end, Depth::default(), &mut ws);
         self.workspace = Some(ws);
         let report = report?;
@@ -708,12 +742,25 @@ impl Simulation {
         let mut report = StepReport::default();
         let outcome = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
-                let active: Vec<usize> = (0..self.points.len())
-                    .filter(|&i| forecast(&self.points[i]))
-                    .collect();
+                let mut in_active: Vec<bool> = self.points.iter().map(forecast).collect();
+                let mut active: Vec<usize> =
+                    (0..in_active.len()).filter(|&i| in_active[i]).collect();
                 let mut vs = self.velocity(&active, &mut ws.velocity);
-                let mut poses = ws.velocity.step.copy_poses(&vs.poses);
                 report.active_set_passes = 1;
+                // a contact the step jumps across joins, and the step is taken again
+                let mut crossed = Vec::new();
+                while report.active_set_passes < p.max_active_set_passes {
+                    self.jumped_across(&in_active, &vs, &mut crossed);
+                    if crossed.is_empty() {
+                        break;
+                    }
+                    crossed.iter().for_each(|c| in_active[c.0] = true);
+                    active = (0..in_active.len()).filter(|&i| in_active[i]).collect();
+                    ws.velocity.step.keep_spent(vs);
+                    vs = self.velocity(&active, &mut ws.velocity);
+                    report.active_set_passes += 1;
+                }
+                let mut poses = ws.velocity.step.copy_poses(&vs.poses);
                 if p.scheme == Scheme::DirectProjection {
                     let chord = vs.elimination.as_deref_mut();
                     report.projection = self
@@ -775,6 +822,7 @@ impl Simulation {
             mut report,
             ..
         } = outcome;
+        let sinking = self.sinking(&vs.v);
         self.record_contacts(&active, &vs);
         ws.velocity.step.keep_elimination(vs.elimination.take());
         std::mem::swap(&mut self.joint_impulses, &mut vs.joint_impulses);
@@ -789,6 +837,7 @@ impl Simulation {
         }
         let replaced = self.update_geometry(points, report.projection.joint_violation);
         ws.activation.keep_points(replaced);
+        self.stats.sank_through += u64::from(self.sank_past(&sinking, &self.points));
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
         report.newton_converged = vs.newton_converged;
@@ -810,19 +859,20 @@ impl Simulation {
         }
     }
 
-    /// Whether a run to `t_end` is over: `t_end` is nearer than half the next step.
+    /// Whether a run to `t_end` is over: `t_end` is nearer than 1e-9 of the next step.
     pub fn reached(&self, t_end: f64) -> bool {
-        self.state.t >= t_end - 0.5 * self.next_step().0
+        self.state.t >= t_end - 1e-9 * self.next_step().0
     }
 
-    /// Steps until `t_end` (to the nearest step), calling `observe` after every step.
+    /// Steps until `t_end`, the last step cut to end there, calling `observe` after every
+    /// step.
     pub fn run_until(
         &mut self,
         t_end: f64,
         mut observe: impl FnMut(&Simulation, &StepReport),
     ) -> Result<(), SimError> {
         while !self.reached(t_end) {
-            let r = self.step()?;
+            let r = self.step_until(t_end)?;
             observe(self, &r);
         }
         Ok(())

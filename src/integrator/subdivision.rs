@@ -158,10 +158,17 @@ impl Simulation {
     }
 
     /// Whether the step is too coarse for its contacts: the contact problem was not solved,
-    /// or the projection found no admissible position. A coarse step on a clearance joint
-    /// (a journal swept around its bore, or across it) is one such; its halves are not.
+    /// the projection found no admissible position, or it left a body past the middle of
+    /// a part (`sinking.rs`). A coarse step on a clearance joint (a journal swept around
+    /// its bore, or across it) is one such; its halves are not.
     pub(super) fn too_coarse(&self, trial: &Outcome) -> bool {
         let projected = self.params.scheme.projects();
-        !trial.vs.solver.converged || (projected && !trial.report.projection.converged)
+        let sank = || {
+            trial
+                .points
+                .as_deref()
+                .is_some_and(|points| self.sank_past(&self.sinking(&trial.vs.v), points))
+        };
+        !trial.vs.solver.converged || (projected && !trial.report.projection.converged) || sank()
     }
 }

@@ -9,7 +9,7 @@ use crate::input::units::DisplayUnit;
 use crate::integrator::Simulation;
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::Drive;
-use crate::mechanics::model::Candidate;
+use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{BodyRef, Model, Pose};
 use curve::{Curve, CurveCells};
 use nalgebra::{Matrix3x6, Vector3, Vector6};
@@ -262,7 +262,12 @@ impl Measure {
         }
     }
 
+    /// The value after the last step: at the state, or over the step for the step's
+    /// quantities (gaps, impulses and the forces they stand for).
     pub fn value(&self, sim: &Simulation) -> f64 {
+        if let Some(v) = self.of_state(sim, &sim.state) {
+            return v;
+        }
         match self {
             Measure::Gap(ids) => ids
                 .iter()
@@ -272,22 +277,6 @@ impl Measure {
                 ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.h()
             }
             Measure::Impulse(ids) => ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>(),
-            Measure::Coordinate(j) => sim.model.joints[*j].coordinate(&sim.state.poses),
-            Measure::RelativeAngle(g) => g.0.angle(&sim.state.poses).0,
-            Measure::FrameAngle { a, b, axis_a } => {
-                crate::mechanics::force::frame_angle(*a, *b, axis_a, &sim.state.poses)
-            }
-            Measure::PointVelocity { body, point, part } => {
-                let pose = &sim.state.poses[*body];
-                let tw = sim.state.twist(*body);
-                let omega = pose.p * tw.fixed_rows::<3>(3);
-                let v = tw.fixed_rows::<3>(0) + omega.cross(&(pose.dir(point)));
-                part.of(&v, &sim.state.poses)
-            }
-            Measure::AngularVelocity { body, part } => {
-                let omega = sim.state.poses[*body].p * sim.state.twist(*body).fixed_rows::<3>(3);
-                part.of(&omega, &sim.state.poses)
-            }
             Measure::Reaction {
                 through,
                 torque,
@@ -297,26 +286,53 @@ impl Measure {
                 part.of(if *torque { &t } else { &f }, &sim.state.poses)
             }
             Measure::DriveEffort(j) => {
-                let joint = &sim.model.joints[*j];
-                match &joint.drive {
-                    Some(Drive::Effort(profile)) => profile.value(sim.state.t),
-                    Some(Drive::Position(_)) => {
-                        // the drive's row is the joint's last
-                        let end: usize =
-                            sim.model.joints[..=*j].iter().map(|j| j.row_count()).sum();
-                        sim.joint_impulses()
-                            .get(end.wrapping_sub(1))
-                            .map_or(0.0, |q| q / sim.h())
-                    }
-                    None => 0.0,
-                }
+                // a position drive's effort is its row's impulse over the step, the row
+                // being the joint's last
+                let end: usize = sim.model.joints[..=*j].iter().map(|j| j.row_count()).sum();
+                sim.joint_impulses()
+                    .get(end.wrapping_sub(1))
+                    .map_or(0.0, |q| q / sim.h())
             }
+            _ => unreachable!("a function of the state"),
+        }
+    }
+
+    /// The value at `state` of a measure that is a function of the state (poses,
+    /// velocities, time); `None` for the step's quantities.
+    fn of_state(&self, sim: &Simulation, state: &State) -> Option<f64> {
+        let poses = &state.poses;
+        Some(match self {
+            Measure::Gap(_)
+            | Measure::ContactForce(_)
+            | Measure::Impulse(_)
+            | Measure::Reaction { .. } => return None,
+            Measure::Coordinate(j) => sim.model.joints[*j].coordinate(poses),
+            Measure::RelativeAngle(g) => g.0.angle(poses).0,
+            Measure::FrameAngle { a, b, axis_a } => {
+                crate::mechanics::force::frame_angle(*a, *b, axis_a, poses)
+            }
+            Measure::PointVelocity { body, point, part } => {
+                let pose = &poses[*body];
+                let tw = state.twist(*body);
+                let omega = pose.p * tw.fixed_rows::<3>(3);
+                let v = tw.fixed_rows::<3>(0) + omega.cross(&(pose.dir(point)));
+                part.of(&v, poses)
+            }
+            Measure::AngularVelocity { body, part } => {
+                let omega = poses[*body].p * state.twist(*body).fixed_rows::<3>(3);
+                part.of(&omega, poses)
+            }
+            Measure::DriveEffort(j) => match &sim.model.joints[*j].drive {
+                Some(Drive::Effort(profile)) => profile.value(state.t),
+                Some(Drive::Position(_)) => return None,
+                None => 0.0,
+            },
             Measure::Eccentricity { joint, part } => {
-                let e = sim.model.clearance_joints[*joint].eccentricity(&sim.state.poses);
-                part.of(&e, &sim.state.poses)
+                let e = sim.model.clearance_joints[*joint].eccentricity(poses);
+                part.of(&e, poses)
             }
             Measure::IdealEccentricity { joint, part } => {
-                let (j, poses) = (&sim.model.joints[*joint], &sim.state.poses);
+                let j = &sim.model.joints[*joint];
                 let offset =
                     world_point(poses, &(j.b, j.anchor_b)) - world_point(poses, &(j.a, j.anchor_a));
                 let axis = j.a.map_or(j.axis_a, |i| poses[i].dir(&j.axis_a));
@@ -328,14 +344,78 @@ impl Measure {
                 axis,
                 frame,
             } => {
-                let poses = &sim.state.poses;
                 let axis = match frame {
                     Some(b) => poses[*b].dir(axis),
                     None => *axis,
                 };
                 (world_point(poses, to) - world_point(poses, from)).dot(&axis)
             }
+        })
+    }
+
+    /// The measure over the step just taken as a polyline of (time, value) from its
+    /// previous value `(t0, v0)` to its value now: a straight line, with a corner at the
+    /// impact located within the step for a function of the state (the value just before
+    /// the impact, then just after it, which differ for a velocity).
+    fn over_step(&self, sim: &Simulation, (t0, v0): (f64, f64), now: (f64, f64)) -> StepPath {
+        let corner = sim.located_impact().and_then(|impact| {
+            let before = self.of_state(sim, &impact.before)?;
+            let after = State {
+                v: impact.v_after.clone(),
+                ..impact.before.clone()
+            };
+            let ti = impact.before.t;
+            Some([(ti, before), (ti, self.of_state(sim, &after)?)])
+        });
+        let mut path = StepPath::default();
+        path.points[0] = (t0, v0);
+        let inner = corner.filter(|c| c[0].0 > t0 && c[0].0 < now.0);
+        for p in inner.iter().flatten() {
+            path.len += 1;
+            path.points[path.len] = *p;
         }
+        path.len += 1;
+        path.points[path.len] = now;
+        path.len += 1;
+        path
+    }
+}
+
+/// A measure over one step: at most four (time, value) points, straight between them.
+#[derive(Clone, Copy, Debug, Default)]
+struct StepPath {
+    points: [(f64, f64); 4],
+    len: usize,
+}
+
+impl StepPath {
+    fn segments(&self) -> impl Iterator<Item = ((f64, f64), (f64, f64))> + '_ {
+        self.points[..self.len].windows(2).map(|w| (w[0], w[1]))
+    }
+
+    /// The value at time `t` within the path (the value just before a corner's jump at
+    /// its own time).
+    fn at(&self, t: f64) -> f64 {
+        for ((ta, va), (tb, vb)) in self.segments() {
+            if t <= tb && tb > ta {
+                return va + (vb - va) * ((t - ta) / (tb - ta)).max(0.0);
+            }
+        }
+        self.points[self.len - 1].1
+    }
+
+    /// The first time the path crosses `threshold` in `direction`, a jump at its instant.
+    fn crossing(&self, threshold: f64, direction: Direction) -> Option<f64> {
+        self.segments().find_map(|((ta, va), (tb, vb))| {
+            let up = va < threshold && vb >= threshold;
+            let down = va > threshold && vb <= threshold;
+            let wanted = match direction {
+                Direction::Up => up,
+                Direction::Down => down,
+                Direction::Either => up || down,
+            };
+            wanted.then(|| ta + (tb - ta) * (threshold - va) / (vb - va))
+        })
     }
 }
 
@@ -355,7 +435,8 @@ pub enum Direction {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
-    /// The candidates' total normal impulse becomes positive, timed within the step: the
+    /// The candidates' total normal impulse becomes positive, timed within the step: at
+    /// the impact's own time where the step located it (`locate_impacts`); else the
     /// event-capturing step knows only that the contact closed somewhere in [t_k, t_k+1],
     /// so the time is t_k + g_k / (−u), the free flight of the step-start gap at the
     /// approach speed u = (g_k − g_k−1)/h of the step before (error about g·h·τ/|u| under
@@ -585,11 +666,17 @@ impl<'a> ProbeRecorder<'a> {
                     let closed = ids.iter().any(|&i| pressed(i));
                     let hit = match event {
                         Event::Closes(_) => (closed && !g.closed).then(|| {
+                            // a located impact has its own time; a contact closing
+                            // without one is timed by its free flight
                             let h = sim.h();
+                            let impact = sim.located_impact();
                             ids.iter()
                                 .zip(&g.approach)
                                 .filter(|(&i, _)| pressed(i))
-                                .map(|(_, &(gap, u))| t - h + closing_delay(gap, u, h))
+                                .map(|(&i, &(gap, u))| match impact {
+                                    Some(m) if m.contacts.contains(&i) => m.before.t,
+                                    _ => t - h + closing_delay(gap, u, h),
+                                })
                                 .fold(t, f64::min)
                         }),
                         _ => (!closed && g.closed).then_some(t),
@@ -623,15 +710,10 @@ impl<'a> ProbeRecorder<'a> {
                 } => {
                     let v = measure.value(sim);
                     let t = t - measure.lag(sim);
-                    let hit = g.previous.and_then(|(t0, v0)| {
-                        let up = v0 < *threshold && v >= *threshold;
-                        let down = v0 > *threshold && v <= *threshold;
-                        let wanted = match direction {
-                            Direction::Up => up,
-                            Direction::Down => down,
-                            Direction::Either => up || down,
-                        };
-                        wanted.then(|| t0 + (t - t0) * (threshold - v0) / (v - v0))
+                    let hit = g.previous.and_then(|previous| {
+                        measure
+                            .over_step(sim, previous, (t, v))
+                            .crossing(*threshold, *direction)
                     });
                     g.previous = Some((t, v));
                     hit
@@ -665,11 +747,12 @@ impl<'a> ProbeRecorder<'a> {
                 if let Some(at) = at.and_then(|r| self.time(r)) {
                     let g = &mut self.progress[i];
                     if t >= at - half_step * 1e-6 {
-                        // linear interpolation between the steps around a given time; an
-                        // event's time is a step end, where this gives the step's value
+                        // interpolated between the steps around a given time, through the
+                        // corner of an impact located between them (at the impact's own
+                        // time: the value just before it)
                         g.value = Some(match g.previous {
                             Some((t0, v0)) if t > t0 && at > t0 => {
-                                v0 + (v - v0) * (at - t0) / (t - t0)
+                                measure.over_step(sim, (t0, v0), (t, v)).at(at)
                             }
                             _ => v,
                         });

@@ -133,7 +133,7 @@ fn advance(
 ) -> Result<Reached, SimError> {
     while !sim.reached(stop.t_end) {
         let opened = sim.refine_window_end().is_some();
-        let report = sim.step()?;
+        let report = sim.step_until(stop.t_end)?;
         recorder.observe(sim);
         observe(sim, &report);
         if stop.when_known && recorder.done() {
@@ -159,6 +159,7 @@ fn merged(fine: &RunStats, coarse: &RunStats, fork: &RunStats) -> RunStats {
         impact_splits: fine.impact_splits + after(coarse.impact_splits, fork.impact_splits),
         halved_steps: fine.halved_steps + after(coarse.halved_steps, fork.halved_steps),
         plastic_steps: fine.plastic_steps + after(coarse.plastic_steps, fork.plastic_steps),
+        sank_through: fine.sank_through + after(coarse.sank_through, fork.sank_through),
         max_penetration: fine.max_penetration.max(coarse.max_penetration),
         max_joint_violation: fine.max_joint_violation.max(coarse.max_joint_violation),
         max_joint_angle_violation: fine

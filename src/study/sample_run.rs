@@ -39,13 +39,20 @@ pub struct Outcome {
     pub curves: Vec<Vec<f64>>,
 }
 
+/// A run of plain Moreau–Jean (which does not project) is suspect once a contact sinks by
+/// more than this fraction of the model's smallest clearance: the clearance is what the
+/// study measures.
+const PLAIN_PENETRATION: f64 = 0.1;
+
 /// Why a run that finished is not to be trusted as it stands, if it is not: steps that did
-/// not converge, or (for a projecting scheme) penetration or joint violation beyond its
-/// tolerance, which includes bodies that overlapped at the start.
+/// not converge, bodies that overlapped at the start, penetration or joint violation beyond
+/// a projecting scheme's tolerance, or penetration beyond `PLAIN_PENETRATION` of the
+/// smallest `clearance` for plain Moreau–Jean.
 fn suspicion(
     st: &crate::integrator::RunStats,
     params: &crate::integrator::IntegrationParameters,
     initial_overlap: Option<&(String, f64)>,
+    clearance: f64,
 ) -> Option<String> {
     let mut why = Vec::new();
     let nonconverged = st.solver_failures + st.newton_failures + st.projection_failures;
@@ -59,6 +66,19 @@ fn suspicion(
     if let Some((what, depth)) = initial_overlap {
         why.push(format!(
             "bodies overlapped at the start: {what} (by {depth:.3e} m)"
+        ));
+    }
+    if !params.scheme.projects() && st.max_penetration > PLAIN_PENETRATION * clearance {
+        why.push(format!(
+            "penetration of {:.3e} m, beyond {PLAIN_PENETRATION} of the smallest clearance ({clearance:.3e} m): plain Moreau–Jean does not project, so its penetration grows with h",
+            st.max_penetration
+        ));
+    }
+    if st.sank_through > 0 {
+        why.push(format!(
+            "a body sank through the middle of a part ({} steps): h·v exceeds half the part's thickness{}",
+            st.sank_through,
+            if params.scheme.projects() { "" } else { " (plain Moreau–Jean sinks up to h·v; combined-projection does not)" }
         ));
     }
     if params.scheme.projects() {
@@ -224,6 +244,12 @@ impl Subject {
                     Err(e) => return failed(Diagnostics::default(), e.to_string()),
                 };
                 let initial_overlap = sim.deepest_overlap();
+                let clearance = sim
+                    .model
+                    .clearance_joints
+                    .iter()
+                    .map(|j| j.clearance)
+                    .fold(f64::INFINITY, f64::min);
                 let run = run_probes(
                     sim,
                     &scene.probes,
@@ -242,7 +268,7 @@ impl Subject {
                         + st.projection_failures,
                     wall_ms: 0.0,
                 };
-                let suspect = suspicion(&st, &scene.params, initial_overlap.as_ref());
+                let suspect = suspicion(&st, &scene.params, initial_overlap.as_ref(), clearance);
                 let mut missing = Vec::new();
                 let values: Result<Vec<f64>, String> = match run.error {
                     Some(e) => Err(e),
