@@ -137,6 +137,7 @@ impl Simulation {
             poses,
             points: Some(after),
             closing,
+            sinking: Vec::new(),
             report,
         }
     }

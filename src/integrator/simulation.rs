@@ -14,6 +14,7 @@ use super::projection::{
     ContactRowsOf, JointViolation, ProjectionOutcome,
 };
 use super::schedule::Schedule;
+use super::sinking::Sinking;
 use super::subdivision::Depth;
 use super::workspace::{ProjectionWorkspace, StepWorkspace, VelocityWorkspace};
 use crate::mechanics::joint::BilateralRow;
@@ -62,6 +63,8 @@ pub(super) struct Outcome {
     pub(super) points: Option<Vec<ContactPoint>>,
     /// Contacts the activation loop added (closing within the step).
     pub(super) closing: Vec<Closing>,
+    /// The contact pairs' points the step sinks into their parts (`sinking.rs`).
+    pub(super) sinking: Vec<Sinking>,
     pub(super) report: StepReport,
 }
 
@@ -740,7 +743,7 @@ impl Simulation {
         let v0 = &self.state.v;
         let forecast = |c: &ContactPoint| p.forecast(c, v0.as_slice()) <= p.activation_margin;
         let mut report = StepReport::default();
-        let outcome = match p.scheme {
+        let mut outcome = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
                 let mut in_active: Vec<bool> = self.points.iter().map(forecast).collect();
                 let mut active: Vec<usize> =
@@ -780,6 +783,7 @@ impl Simulation {
                     poses,
                     points: None,
                     closing: Vec::new(),
+                    sinking: Vec::new(),
                     report,
                 }
             }
@@ -803,6 +807,7 @@ impl Simulation {
                     message,
                 })?;
         }
+        outcome.sinking = self.sinking(&outcome.vs.v);
         Ok(outcome)
     }
 
@@ -819,10 +824,10 @@ impl Simulation {
             mut vs,
             poses,
             points,
+            sinking,
             mut report,
             ..
         } = outcome;
-        let sinking = self.sinking(&vs.v);
         self.record_contacts(&active, &vs);
         ws.velocity.step.keep_elimination(vs.elimination.take());
         std::mem::swap(&mut self.joint_impulses, &mut vs.joint_impulses);

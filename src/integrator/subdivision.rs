@@ -167,7 +167,7 @@ impl Simulation {
             trial
                 .points
                 .as_deref()
-                .is_some_and(|points| self.sank_past(&self.sinking(&trial.vs.v), points))
+                .is_some_and(|points| self.sank_past(&trial.sinking, points))
         };
         !trial.vs.solver.converged || (projected && !trial.report.projection.converged) || sank()
     }

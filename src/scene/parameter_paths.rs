@@ -980,19 +980,27 @@ fn edit_distance(a: &str, b: &str) -> usize {
 mod tests {
     use super::*;
 
+    /// Every bundled mechanism scene (a function scene is not one), with its file.
+    fn bundled_specs() -> Vec<(std::path::PathBuf, SceneSpec)> {
+        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+        let mut specs = Vec::new();
+        for entry in std::fs::read_dir(studies).unwrap() {
+            let path = entry.unwrap().path().join("scene.yaml");
+            let text = std::fs::read_to_string(&path).unwrap();
+            if let Ok(spec) = serde_saphyr::from_str::<SceneSpec>(&text) {
+                specs.push((path, spec));
+            }
+        }
+        specs
+    }
+
     /// Every path of every bundled scene, written back with its value in the unit the path
     /// declares, is accepted by the builder, which checks units against what each field
     /// expects: the dimensions listed here agree with the builder's.
     #[test]
     fn declared_dimensions_agree_with_the_builder() {
-        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
         let mut checked = 0;
-        for entry in std::fs::read_dir(studies).unwrap() {
-            let path = entry.unwrap().path().join("scene.yaml");
-            let text = std::fs::read_to_string(&path).unwrap();
-            let Ok(spec) = serde_saphyr::from_str::<SceneSpec>(&text) else {
-                continue; // a function scene
-            };
+        for (path, spec) in bundled_specs() {
             for p in paths(&spec) {
                 let mut s = spec.clone();
                 let value = p.value.unwrap_or(1.0);
@@ -1017,7 +1025,6 @@ mod tests {
     /// defaults are the builder's.
     #[test]
     fn stated_defaults_are_the_builder_s() {
-        let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
         let built = |spec: SceneSpec| {
             let s = super::super::build::build(spec, "check", Vec::new()).unwrap();
             format!(
@@ -1026,12 +1033,7 @@ mod tests {
             )
         };
         let mut checked = 0;
-        for entry in std::fs::read_dir(studies).unwrap() {
-            let path = entry.unwrap().path().join("scene.yaml");
-            let text = std::fs::read_to_string(&path).unwrap();
-            let Ok(spec) = serde_saphyr::from_str::<SceneSpec>(&text) else {
-                continue; // a function scene
-            };
+        for (path, spec) in bundled_specs() {
             let base = built(spec.clone());
             for p in paths(&spec) {
                 let (None, Fallback::Value(d)) = (p.value, p.default) else {
