@@ -68,6 +68,9 @@ impl Simulation {
             .filter(|&i| self.impulses[i].x > 0.0 || self.points[i].gap() <= p.activation_margin)
             .collect();
         let (mut last, mut settled) = (None, false);
+        // whether a pass has looked for closing contacts yet (a pass that adds crossed
+        // guards does not)
+        let mut looked = false;
         let StepWorkspace {
             velocity,
             projection,
@@ -107,8 +110,9 @@ impl Simulation {
                 break;
             }
             // a contact that the first pass (the motion without this step's new impulses)
-            // leaves open, and that was not approaching at the start, is knocked shut by
-            // another contact's impact
+            // leaves open is knocked shut by another contact's impact, however it was moving
+            // at the start: a ball drifting towards the next one still passes a blow on
+            // after it has taken it
             let crossed = &lists.crossed;
             let end_gap = |i: usize| match crossed.iter().find(|c| c.0 == i) {
                 Some(c) => c.1,
@@ -117,13 +121,14 @@ impl Simulation {
             closing.extend(new.iter().map(|&i| Closing {
                 candidate: i,
                 end_gap: end_gap(i),
-                knocked: pass > 1 && self.points[i].normal_velocity(self.state.v.as_slice()) >= 0.0,
+                knocked: looked,
             }));
             if let Some((_, vs, poses, points)) = last.replace((active.clone(), vs, poses, after)) {
                 velocity.step.keep_spent(vs);
                 velocity.step.keep_poses(poses);
                 keep_larger(&mut lists.points, points);
             }
+            looked = true;
             active.extend(new.iter().copied());
             active.sort_unstable();
         }

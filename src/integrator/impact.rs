@@ -29,14 +29,22 @@ impl Simulation {
     /// of the step at which it closes: its gap interpolated linearly between the step's
     /// start and the end of the pass that activated it. `None` without one.
     pub(super) fn first_impact(&self, trial: &Outcome) -> Option<(usize, f64)> {
-        trial
-            .closing
-            .iter()
-            .filter_map(|c| {
-                let g0 = self.points[c.candidate].gap();
-                (g0 > 0.0 && c.end_gap < 0.0).then(|| (c.candidate, g0 / (g0 - c.end_gap)))
-            })
+        self.closing_instants(trial)
+            .filter(|c| c.1 < 1.0)
             .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The contacts that close within the step `trial` computed, each with the fraction of
+    /// the step at which its gap, interpolated linearly, closes (1 for one that closes
+    /// exactly at the step's end).
+    pub(super) fn closing_instants<'a>(
+        &'a self,
+        trial: &'a Outcome,
+    ) -> impl Iterator<Item = (usize, f64)> + 'a {
+        trial.closing.iter().filter_map(|c| {
+            let g0 = self.points[c.candidate].gap();
+            (g0 > 0.0 && c.end_gap <= 0.0).then(|| (c.candidate, g0 / (g0 - c.end_gap)))
+        })
     }
 
     /// The step redone in three parts: up to the impact of contact `i` at fraction `s` of

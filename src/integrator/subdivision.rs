@@ -98,16 +98,15 @@ impl Simulation {
         }
         let trial = trial?;
         // Impacts are located on request, and always where one knocks another contact shut
-        // within the step: taken together, they would share their momentum as a
-        // simultaneous impact does (a row of balls struck at one end would leave at
-        // (−1/3, 2/3, 2/3), not (0, 0, 1)).
-        let knocked: Vec<usize> = trial
-            .closing
-            .iter()
-            .filter(|c| c.knocked)
-            .map(|c| c.candidate)
-            .collect();
-        let locate = self.params.locate_impacts || !knocked.is_empty();
+        // within the step or two contacts close in it, and in the rest of a step split at
+        // one: taken together, they would share their momentum as a simultaneous impact
+        // does (a row of balls struck at one end would leave at (−1/3, 2/3, 2/3), not
+        // (0, 0, 1)).
+        let knocked = trial.closing.iter().any(|c| c.knocked);
+        let locate = self.params.locate_impacts
+            || knocked
+            || self.closings_apart(&trial)
+            || depth.splits > 0;
         let impact = match locate && depth.splits < MAX_SPLITS {
             true => self.first_impact(&trial),
             false => None,
@@ -115,18 +114,31 @@ impl Simulation {
         let Some((i, s)) = impact else {
             return Ok(self.commit(trial, t_end, ws));
         };
-        // the contacts the impact takes together, less those it knocks shut
+        // the contacts the impact takes together: those of the step less the others that
+        // close within it, which take their own impacts at their own instants (or this
+        // one, where they touch at it)
         let in_step: Vec<usize> = trial
             .active
             .iter()
             .copied()
-            .filter(|k| !knocked.contains(k))
+            .filter(|&k| k == i || trial.closing.iter().all(|c| c.candidate != k))
             .collect();
         let depth = Depth {
             splits: depth.splits + 1,
             ..depth
         };
         self.split_at_impact(i, s, &in_step, t_end, depth, ws)
+    }
+
+    /// Whether two contacts close within the step at instants apart (by more than 1e-6 of
+    /// it, as the gaps' secants place them): the θ-rule would take their impacts as one.
+    fn closings_apart(&self, trial: &Outcome) -> bool {
+        let (first, last) = self
+            .closing_instants(trial)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (_, s)| {
+                (a.min(s), b.max(s))
+            });
+        last - first > 1e-6
     }
 
     /// The step as two halves, each taken as `advance` takes a step.
