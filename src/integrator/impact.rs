@@ -153,9 +153,9 @@ impl Simulation {
     /// whole step as the unsplit step had them (`in_step`: the two rings of a journal
     /// swinging in its plane, a box's corners; taken one after the other, with e = 0, they
     /// lose other momenta), with the guards that stop a journal the blow drives across its
-    /// clearance. A contact this impact knocks shut is not among them: it takes its own
-    /// impact in the rest of the step (a row of balls passes the blow on one ball at a
-    /// time).
+    /// clearance. A contact that closes later in the step (`in_step` leaves it out) is not
+    /// among them unless it touches at this instant: it takes its own impact in the rest of
+    /// the step (a row of balls passes the blow on one ball at a time).
     fn impact_contacts(&self, i: usize, in_step: &[usize]) -> Vec<usize> {
         let margin = self.params.activation_margin + self.points[i].gap().max(0.0);
         let mut member = vec![false; self.points.len()];

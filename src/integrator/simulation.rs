@@ -74,8 +74,9 @@ pub(super) struct Closing {
     pub(super) candidate: usize,
     /// Its gap at the end of the pass before it was added.
     pub(super) end_gap: f64,
-    /// Closed by another contact's impulse within the step (it was not approaching at the
-    /// step's start): an impact that follows another, not one that happens with it.
+    /// Closed by another contact's impulse within the step (the motion without the step's
+    /// new impulses leaves it open): an impact that follows another, not one that happens
+    /// with it.
     pub(super) knocked: bool,
 }
 
