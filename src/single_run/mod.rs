@@ -125,6 +125,8 @@ pub struct SimulateReport {
     /// Where the refinement window forked, and its coarse and fine steps.
     pub extrapolated: Option<(f64, f64, f64)>,
     pub has_joints: bool,
+    /// Whether the scene has rigid unilateral contacts (pairs, stops, clearance joints).
+    pub has_contacts: bool,
     pub locate_impacts: bool,
     work: Work,
     pub wall_seconds: f64,
@@ -280,6 +282,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
             (t, 2.0 * fine, fine)
         }),
         has_joints: !sim.model.joints.is_empty(),
+        has_contacts: !sim.contact_ids().is_empty(),
         locate_impacts: sim.params.locate_impacts,
         work,
         wall_seconds,
@@ -360,6 +363,15 @@ impl fmt::Display for SimulateReport {
         writeln!(f, "newton failures  {} steps", st.newton_failures)?;
         if self.locate_impacts {
             writeln!(f, "impacts located  {} steps split", st.impact_splits)?;
+        } else if self.has_contacts {
+            let remedy = match self.scheme {
+                Scheme::CombinedProjection => "`locate_impacts: true` places each at its instant",
+                _ => "`scheme: combined-projection` with `locate_impacts: true` places each at its instant",
+            };
+            writeln!(
+                f,
+                "impacts          at step ends: the bodies may be up to h/2 times each velocity jump off (a bounce's apex by up to (1 + e) v h / 2); {remedy}"
+            )?;
         }
         if st.halved_steps > 0 {
             writeln!(
