@@ -501,3 +501,68 @@ fn implausible_values_are_warned_about_not_refused() {
         s.warnings
     );
 }
+
+#[test]
+fn a_compliant_contact_names_what_is_wrong_with_its_law() {
+    let e = "    e: 0.5\n";
+    expect(e, "    e: 0.5\n    law: springy\n", "contacts[0].law", 15);
+    expect(
+        e,
+        "    e: 0.5\n    compliance: { stiffness: 1e9 }\n",
+        "contacts[0].compliance",
+        15,
+    );
+    expect(
+        e,
+        "    e: 0.5\n    law: compliant\n",
+        "contacts[0].compliance",
+        9,
+    );
+    expect(
+        e,
+        "    e: 0\n    law: compliant\n    compliance: { stiffness: 1e9 }\n",
+        "contacts[0].e",
+        16,
+    );
+    expect(
+        e,
+        "    e: 0.5\n    law: compliant\n    compliance: { material: { E: 210 GPa, nu: 0.7 } }\n",
+        "contacts[0].compliance.material.nu",
+        16,
+    );
+    expect(
+        e,
+        "    e: 0.5\n    law: compliant\n    compliance: { material: { E: 210 N, nu: 0.3 } }\n",
+        "contacts[0].compliance.material.E",
+        16,
+    );
+    expect(
+        e,
+        "    e: 0.5\n    law: compliant\n    compliance: { stiffness: 1e9, material: { E: 210 GPa, nu: 0.3 } }\n",
+        "contacts[0].compliance.stiffness",
+        16,
+    );
+}
+
+#[test]
+fn hertz_stiffness_needs_a_sphere() {
+    let text = GOOD_BALL
+        .replacen(
+            "    shape: { sphere: { radius: 0.1 m } }\n    against",
+            "    shape: { box: { size: [0.1, 0.1, 0.1] } }\n    against",
+            1,
+        )
+        .replacen(
+            "    e: 0.5\n",
+            "    e: 0.5\n    law: compliant\n    compliance: { material: { E: 210 GPa, nu: 0.3 } }\n",
+            1,
+        );
+    let Err(e) = Scene::from_yaml(&text, "scene.yaml") else {
+        panic!("a box's Hertz stiffness was accepted");
+    };
+    let e = e.to_string();
+    assert!(
+        e.starts_with("scene.yaml:16:") && e.contains("give `stiffness`"),
+        "{e}"
+    );
+}

@@ -25,6 +25,7 @@ impl Dim {
     pub const ROTATIONAL_DAMPING: Dim = Dim(2, 1, -1);
     pub const INERTIA: Dim = Dim(2, 1, 0);
     pub const IMPULSE: Dim = Dim(1, 1, -1);
+    pub const PRESSURE: Dim = Dim(-1, 1, -2);
 
     fn mul(self, o: Dim, exp: i8) -> Dim {
         Dim(self.0 + o.0 * exp, self.1 + o.1 * exp, self.2 + o.2 * exp)
@@ -55,6 +56,7 @@ impl Dim {
             (Dim::STIFFNESS, "N/m"),
             (Dim::INERTIA, "kg*m^2"),
             (Dim::IMPULSE, "N*s"),
+            (Dim::PRESSURE, "Pa"),
         ];
         named
             .iter()
@@ -80,6 +82,7 @@ impl Dim {
             (Dim::ROTATIONAL_DAMPING, "a rotational damping (e.g. N*m*s)"),
             (Dim::INERTIA, "an inertia (e.g. kg*m^2)"),
             (Dim::IMPULSE, "an impulse (e.g. N*s)"),
+            (Dim::PRESSURE, "a pressure or a modulus (e.g. GPa)"),
         ];
         named
             .iter()
@@ -135,6 +138,10 @@ fn unit(name: &str) -> Option<(i32, f64, Dim)> {
         "kN" => (3, 1.0, Dim::FORCE),
         "mN" => (-3, 1.0, Dim::FORCE),
         "J" => (0, 1.0, Dim::TORQUE),
+        "Pa" => (0, 1.0, Dim::PRESSURE),
+        "kPa" => (3, 1.0, Dim::PRESSURE),
+        "MPa" => (6, 1.0, Dim::PRESSURE),
+        "GPa" => (9, 1.0, Dim::PRESSURE),
         "rad" => (0, 1.0, Dim::NONE),
         "mrad" => (-3, 1.0, Dim::NONE),
         "deg" | "°" => (0, PI / 180.0, Dim::NONE),

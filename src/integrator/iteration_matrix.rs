@@ -178,6 +178,8 @@ struct FormedAt<'a> {
     t: f64,
     poses: &'a [Pose],
     twists: &'a [f64],
+    /// The compliant contacts' closing speeds (`Model::wrench`).
+    onset: &'a [Option<f64>],
     velocity_weight: f64,
     pose_weight: f64,
 }
@@ -258,6 +260,48 @@ fn force_blocks(
         }
         if by_pose || by_vel {
             difference_blocks(diag, off, f, (by_pose, by_vel), at, &mut scratch);
+        }
+    }
+    compliant_blocks(diag, off, at);
+}
+
+/// The blocks of the compliant contacts, in closed form (`CompliantContact::jacobian`).
+fn compliant_blocks(
+    diag: &mut [Matrix6<f64>],
+    off: &mut Vec<((usize, usize), Matrix6<f64>)>,
+    at: &FormedAt,
+) {
+    let mut first = 0;
+    let mut blocks = Vec::new();
+    for c in &at.model.compliant {
+        let onset = &at.onset[first..first + c.points()];
+        first += c.points();
+        blocks.clear();
+        c.jacobian(
+            at.poses,
+            at.twists,
+            onset,
+            (at.pose_weight, at.velocity_weight),
+            &mut blocks,
+        );
+        for &(i, j, b) in &blocks {
+            if !(moves(at.mask, i) && moves(at.mask, j)) {
+                continue;
+            }
+            let mut b = b;
+            for r in 0..6 {
+                for k in 0..6 {
+                    if !at.mask[6 * i + r] || !at.mask[6 * j + k] {
+                        b[(r, k)] = 0.0;
+                    }
+                }
+            }
+            let blk = if i == j {
+                &mut diag[i]
+            } else {
+                off_block(off, i, j)
+            };
+            *blk -= b;
         }
     }
 }
@@ -363,6 +407,7 @@ impl IterationMatrix {
         h: f64,
         theta: f64,
         damping: f64,
+        onset: &[Option<f64>],
     ) {
         let n = model.bodies.len();
         self.mask.clear();
@@ -380,6 +425,7 @@ impl IterationMatrix {
             t,
             poses,
             twists: v.as_slice(),
+            onset,
             velocity_weight: h * theta,
             pose_weight: h * h * theta * theta,
         };

@@ -202,6 +202,8 @@ pub struct StepStart<'a> {
     pub t: f64,
     pub poses: &'a [Pose],
     pub v0: &'a DVector<f64>,
+    /// The compliant contacts' closing speeds (`Model::wrench`).
+    pub onset: &'a [Option<f64>],
 }
 
 /// Velocity step from (t, poses, v0) with the contacts `active` (evaluated at `poses`),
@@ -326,7 +328,9 @@ impl VelocityStorage {
     /// scale the Newton loop's residual is measured against.
     fn start_forces(&mut self, start: &StepStart) -> f64 {
         let (f0, mv) = (&mut self.f0, &mut self.mv);
-        start.model.wrench(start.t, start.poses, start.v0, f0);
+        start
+            .model
+            .wrench(start.t, start.poses, start.v0, start.onset, f0);
         start.model.mass_times(start.v0, mv);
         f0.axpy(-start.damping, &*mv, 1.0);
         mv.norm() + start.params.h * f0.norm()
@@ -377,7 +381,7 @@ impl VelocityStorage {
         let (model, h, theta) = (start.model, start.params.h, start.params.theta);
         let alpha = start.damping;
         advance_poses_into(&mut self.poses1, start.poses, start.v0, v, h, theta);
-        model.wrench(start.t + h, &self.poses1, v, &mut self.f1);
+        model.wrench(start.t + h, &self.poses1, v, start.onset, &mut self.f1);
         if alpha > 0.0 {
             model.mass_times(v, &mut self.resid);
             self.f1.axpy(-alpha, &self.resid, 1.0);
@@ -414,8 +418,17 @@ impl VelocityStorage {
         let t1 = start.t + h;
         let (model, mask) = (start.model, start.mask);
         let alpha = start.damping;
-        self.w
-            .assemble(model, mask, t1, &self.poses1, v, h, theta, alpha);
+        self.w.assemble(
+            model,
+            mask,
+            t1,
+            &self.poses1,
+            v,
+            h,
+            theta,
+            alpha,
+            start.onset,
+        );
         self.v_free.copy_from(&self.resid);
         self.w.solve_mut(&mut self.v_free);
         self.v_free.zip_apply(v, |f, vi| *f = vi - *f);
@@ -876,7 +889,7 @@ mod tests {
                 let mask = sim.model.dof_mask();
                 let poses = &sim.state.poses;
                 let mut w = IterationMatrix::default();
-                w.assemble(&sim.model, &mask, 0.0, poses, &nan(), 1e-3, 0.5, 0.0);
+                w.assemble(&sim.model, &mask, 0.0, poses, &nan(), 1e-3, 0.5, 0.0, &[]);
                 // the joints' elimination formed with that matrix
                 let mut elimination = Elimination::default();
                 let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {

@@ -893,7 +893,7 @@ mod tests {
         let (plain_out, plain) = run(None);
         let mut w = IterationMatrix::default();
         let rest = DVector::zeros(sim.state.v.len());
-        w.assemble(&sim.model, &sim.mask, t, &knocked, &rest, h, 0.5, 0.0);
+        w.assemble(&sim.model, &sim.mask, t, &knocked, &rest, h, 0.5, 0.0, &[]);
         let mut elimination = Elimination::default();
         let rows_at = |t: f64, poses: &[Pose], out: &mut Vec<BilateralRow>| {
             sim.model.joint_rows_into(t, poses, out)

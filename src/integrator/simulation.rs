@@ -197,6 +197,9 @@ pub struct Simulation {
     /// The poses at which every clearance joint's `check` last passed (a step's end): the
     /// next step starts from them and need not check them again.
     pub(super) checked_poses: Vec<Pose>,
+    /// Per point of the compliant contacts (`Model::compliant_points`), the approach speed
+    /// at which its present contact began; `None` while it is open.
+    pub(super) compliant_onset: Vec<Option<f64>>,
     pub stats: RunStats,
     /// The first impact located within the last step, if one was.
     pub(super) located_impact: Option<LocatedImpact>,
@@ -255,6 +258,7 @@ impl Simulation {
             n0: 0,
             refine_until: None,
             checked_poses: Vec::new(),
+            compliant_onset: vec![None; model.compliant_points()],
             model,
             params,
             schedule,
@@ -465,6 +469,7 @@ impl Simulation {
             t: self.state.t,
             poses: &self.state.poses,
             v0: &self.state.v,
+            onset: &self.compliant_onset,
         };
         if active.is_empty() {
             return velocity_step(&start, &[], &[], None, rows_at, &mut ws.step);
@@ -843,6 +848,7 @@ impl Simulation {
         }
         let replaced = self.update_geometry(points, report.projection.joint_violation);
         ws.activation.keep_points(replaced);
+        self.update_onsets();
         self.stats.sank_through += u64::from(self.sank_past(&sinking, &self.points));
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
@@ -851,6 +857,44 @@ impl Simulation {
         report.plastic = vs.plastic;
         ws.velocity.step.keep_spent(vs);
         report
+    }
+
+    /// Each compliant point's closing speed after a step: kept while it stays closed, its
+    /// approach speed now where it has just closed (the speed its force took while it
+    /// closed), none where it is open.
+    fn update_onsets(&mut self) {
+        let (poses, v) = (&self.state.poses, self.state.v.as_slice());
+        let mut first = 0;
+        for c in &self.model.compliant {
+            for k in 0..c.points() {
+                let onset = &mut self.compliant_onset[first + k];
+                let point = c.evaluate(k, poses);
+                *onset = match (point.gap() < 0.0, *onset) {
+                    (false, _) => None,
+                    (true, Some(o)) => Some(o),
+                    (true, None) => Some((-point.normal_velocity(v)).max(0.0)),
+                };
+            }
+            first += c.points();
+        }
+    }
+
+    /// The compliant contacts' points at the current state, over all of them in order,
+    /// each with its force on body 1 in its local frame (n, t1, t2).
+    pub fn compliant_points(&self) -> Vec<(ContactPoint, Vector3<f64>)> {
+        let (poses, v) = (&self.state.poses, self.state.v.as_slice());
+        let mut first = 0;
+        let mut out = Vec::new();
+        for c in &self.model.compliant {
+            let law = c.point_law();
+            for k in 0..c.points() {
+                let point = c.evaluate(k, poses);
+                let force = law.local_force(&point, v, self.compliant_onset[first + k]);
+                out.push((point, force));
+            }
+            first += c.points();
+        }
+        out
     }
 
     /// The impulses of the contacts `active` over a step; every other contact has none.

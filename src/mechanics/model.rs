@@ -4,6 +4,7 @@
 
 use super::body::{Motion, Pose, RigidBody, Twist};
 use super::contact::clearance::ClearanceJoint;
+use super::contact::compliant::{CompliantContact, CompliantSource};
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
 use super::joint::{BilateralRow, Joint};
@@ -27,6 +28,9 @@ pub struct Model {
     pub joints: Vec<Joint>,
     /// Revolute joints with clearance: sets of unilateral contacts.
     pub clearance_joints: Vec<ClearanceJoint>,
+    /// Contact pairs and clearance joints under a compliant law: smooth forces, outside
+    /// the contact candidates.
+    pub compliant: Vec<CompliantContact>,
 }
 
 /// Positions (one pose per body) and the generalized velocity (6 per body: v_G inertial,
@@ -122,6 +126,19 @@ impl Model {
             .collect()
     }
 
+    /// The points (in `compliant_points` order) of the compliant contact named `name`.
+    pub fn compliant_points_of(&self, name: &str) -> Vec<usize> {
+        let mut first = 0;
+        let mut ids = Vec::new();
+        for c in &self.compliant {
+            if c.name() == name {
+                ids.extend(first..first + c.points());
+            }
+            first += c.points();
+        }
+        ids
+    }
+
     /// Generalized mass times `v` (diag(m I, I_body) per body).
     pub fn mass_times(&self, v: &DVector<f64>, out: &mut DVector<f64>) {
         for (i, b) in self.bodies.iter().enumerate() {
@@ -134,10 +151,24 @@ impl Model {
         }
     }
 
-    /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ and the force elements.
-    /// Entries of held degrees of freedom are zero. (The settling damping is the step's:
-    /// the integrator adds it.)
-    pub fn wrench(&self, t: f64, poses: &[Pose], v: &DVector<f64>, out: &mut DVector<f64>) {
+    /// Points of the compliant contacts, over all of them in order: one closing speed each
+    /// in `wrench`'s `onset`.
+    pub fn compliant_points(&self) -> usize {
+        self.compliant.iter().map(CompliantContact::points).sum()
+    }
+
+    /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ, the force elements and the
+    /// compliant contacts, whose points closed at the speeds `onset` (`compliant_points`
+    /// entries; `None` for a point closing now). Entries of held degrees of freedom are
+    /// zero. (The settling damping is the step's: the integrator adds it.)
+    pub fn wrench(
+        &self,
+        t: f64,
+        poses: &[Pose],
+        v: &DVector<f64>,
+        onset: &[Option<f64>],
+        out: &mut DVector<f64>,
+    ) {
         out.as_mut_slice().fill(0.0);
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion == Motion::Fixed {
@@ -154,6 +185,17 @@ impl Model {
         }
         for j in &self.joints {
             j.apply_effort(t, poses, out.as_mut_slice());
+        }
+        let mut first = 0;
+        for c in &self.compliant {
+            let n = c.points();
+            c.apply(
+                poses,
+                v.as_slice(),
+                &onset[first..first + n],
+                out.as_mut_slice(),
+            );
+            first += n;
         }
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion != Motion::Free || b.planar.is_some() {
@@ -188,6 +230,11 @@ impl Model {
             .iter()
             .map(|f| f.potential(&state.poses))
             .sum::<f64>()
+            + self
+                .compliant
+                .iter()
+                .map(|c| c.potential(&state.poses))
+                .sum::<f64>()
     }
 
     /// Every candidate contact point, in a fixed order: the points of each contact pair,
@@ -202,8 +249,17 @@ impl Model {
             .enumerate()
             .filter(|(_, j)| j.limits.is_some())
             .flat_map(|(i, _)| [false, true].map(|upper| Candidate::Limit { joint: i, upper }));
+        // a compliant journal's rings (and their guards) are its compliant contact's
+        let compliant = |j: &ClearanceJoint| {
+            self.compliant
+                .iter()
+                .any(|c| matches!(&c.source, CompliantSource::Journal(g) if g.name == j.name))
+        };
         let clearance = self.clearance_joints.iter().enumerate().flat_map(|(i, j)| {
-            (0..j.candidates()).map(move |k| Candidate::Clearance { joint: i, point: k })
+            let rigid_rings = !compliant(j);
+            (0..j.candidates())
+                .filter(move |&k| rigid_rings || (k >= 2 && !j.is_guard(k)))
+                .map(move |k| Candidate::Clearance { joint: i, point: k })
         });
         pairs.chain(limits).chain(clearance).collect()
     }

@@ -26,6 +26,18 @@ pub enum Measure {
     /// Total normal impulse of these candidates over the last step (N·s): a step's impulse
     /// converges to the impact's as h falls, where the force (impulse / h) grows as 1/h.
     Impulse(Vec<usize>),
+    /// Smallest gap of a compliant contact's points (`Model::compliant_points_of`) and of
+    /// its rigid candidates (a compliant journal's flanges), m.
+    CompliantGap {
+        rigid: Vec<usize>,
+        compliant: Vec<usize>,
+    },
+    /// Total normal force of a compliant contact's points at the state, and of its rigid
+    /// candidates over the last step (impulse / h), N.
+    CompliantForce {
+        rigid: Vec<usize>,
+        compliant: Vec<usize>,
+    },
     /// (p_to − p_from) · axis; the axis is fixed in `frame` (world when `None`).
     Distance {
         from: (BodyRef, Vector3<f64>),
@@ -92,6 +104,8 @@ pub enum Transmission {
     Clearance {
         joint: usize,
         candidates: Vec<usize>,
+        /// Its compliant rings (`Model::compliant_points_of`), if it is compliant.
+        compliant: Vec<usize>,
     },
 }
 
@@ -171,6 +185,7 @@ impl Transmission {
         Transmission::Clearance {
             joint: j,
             candidates: model.contact_candidates_of(&model.clearance_joints[j].name),
+            compliant: model.compliant_points_of(&model.clearance_joints[j].name),
         }
     }
 }
@@ -224,8 +239,28 @@ pub fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vect
             }
             stops.iter().for_each(|&c| contact(&mut w, c));
         }
-        Transmission::Clearance { candidates, .. } => {
-            candidates.iter().for_each(|&c| contact(&mut w, c))
+        Transmission::Clearance {
+            candidates,
+            compliant,
+            ..
+        } => {
+            candidates.iter().for_each(|&c| contact(&mut w, c));
+            // a compliant ring's force at the state, as the impulse of a step at it
+            let points = match compliant.is_empty() {
+                true => Vec::new(),
+                false => sim.compliant_points(),
+            };
+            for &c in compliant {
+                let (cp, f) = &points[c];
+                let (g1, g2) = cp.blocks();
+                let p = f * sim.h();
+                if cp.body1 == Some(target) {
+                    add_impulse(&mut w, &g1, &p);
+                }
+                if cp.body2 == Some(target) {
+                    add_impulse(&mut w, &g2, &p);
+                }
+            }
         }
     }
     let pose = &poses[target];
@@ -277,6 +312,19 @@ impl Measure {
                 ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.h()
             }
             Measure::Impulse(ids) => ids.iter().map(|&i| sim.impulses()[i].x).sum::<f64>(),
+            Measure::CompliantGap { rigid, compliant } => {
+                let points = sim.compliant_points();
+                rigid
+                    .iter()
+                    .map(|&i| sim.contact_points()[i].gap())
+                    .chain(compliant.iter().map(|&i| points[i].0.gap()))
+                    .fold(f64::INFINITY, f64::min)
+            }
+            Measure::CompliantForce { rigid, compliant } => {
+                let points = sim.compliant_points();
+                rigid.iter().map(|&i| sim.impulses()[i].x).sum::<f64>() / sim.h()
+                    + compliant.iter().map(|&i| points[i].1.x).sum::<f64>()
+            }
             Measure::Reaction {
                 through,
                 torque,
@@ -305,6 +353,8 @@ impl Measure {
             Measure::Gap(_)
             | Measure::ContactForce(_)
             | Measure::Impulse(_)
+            | Measure::CompliantGap { .. }
+            | Measure::CompliantForce { .. }
             | Measure::Reaction { .. } => return None,
             Measure::Coordinate(j) => sim.model.joints[*j].coordinate(poses),
             Measure::RelativeAngle(g) => g.0.angle(poses).0,

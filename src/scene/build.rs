@@ -8,10 +8,12 @@ use super::fields::{count, positive, vec3, R};
 use super::integrator::apply_integrator;
 use super::joints::{joint, BuiltJoint};
 use super::schema::SceneSpec;
+use super::shapes::BuiltContact;
 use super::{Scene, Tuning};
 use crate::input::units::Dim;
 use crate::integrator::assembly::{assemble, AssemblyError, Targets};
 use crate::integrator::IntegrationParameters;
+use crate::mechanics::contact::compliant::{CompliantContact, CompliantSource};
 use crate::mechanics::Model;
 
 /// Every how many steps `simulate --out` records where `record.every` is left out.
@@ -44,8 +46,10 @@ fn parts(document: SceneSpec, file: &str, tuning: Vec<Tuning>) -> R<Scene> {
         super::bodies::hold_to_plane(&mut model, plane, &spec.bodies)?;
     }
     for (i, c) in spec.contacts.iter().enumerate() {
-        let pair = super::shapes::contact(&model, c, i, file)?;
-        model.contacts.push(pair);
+        match super::shapes::contact(&model, c, i, file)? {
+            BuiltContact::Rigid(pair) => model.contacts.push(pair),
+            BuiltContact::Compliant(c) => model.compliant.push(c),
+        }
     }
     for (i, fs) in spec.forces.iter().enumerate() {
         let f = super::forces::force(&model, fs, i)?;
@@ -149,7 +153,13 @@ fn add_joints(model: &mut Model, spec: &SceneSpec) -> R<Targets> {
                 model.joints.push(joint);
                 targets.joints.push(start);
             }
-            BuiltJoint::Clearance(joint, offset) => {
+            BuiltJoint::Clearance(joint, offset, law) => {
+                if let Some(law) = law {
+                    model.compliant.push(CompliantContact {
+                        source: CompliantSource::Journal(joint.clone()),
+                        law,
+                    });
+                }
                 model.clearance_joints.push(joint);
                 targets.eccentricities.push(offset);
             }

@@ -1,6 +1,7 @@
 //! The revolute joint with clearance: bore on `body_a`, journal and flanges on `body_b`,
 //! placed from a world anchor and axis or from body-frame ones.
 
+use super::compliance::{compliant_law, is_compliant};
 use super::error::{line, SceneError};
 use super::fields::{
     count, given, non_negative, opt_vec3, positive, restitution, unit_vec3, vec3, R,
@@ -86,6 +87,17 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
         }
     };
     let eccentricity = initial_eccentricity(spec, bore_axis, clearance, &f)?;
+    let mu = spec
+        .mu
+        .as_ref()
+        .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?;
+    // Lankarani and Nikravesh's equivalent sphere of a journal in its bore,
+    // R = R_J R_B / (R_B − R_J)
+    let radius = journal_radius * (journal_radius + clearance) / clearance;
+    let law = match is_compliant(&spec.law, &spec.compliance, l, &f)? {
+        true => Some(compliant_law(&spec.compliance, Ok(radius), (mu, e), l, &f)?),
+        false => None,
+    };
     let joint = ClearanceJoint {
         name: spec.name.value.clone(),
         bore_body: a,
@@ -102,13 +114,10 @@ pub(super) fn clearance_joint(model: &Model, spec: &JointSpec, i: usize) -> R<Bu
         })?,
         flange_radius,
         rim_points: rim,
-        mu: spec
-            .mu
-            .as_ref()
-            .map_or(Ok(0.0), |q| non_negative(q, Dim::NONE, &f("mu")))?,
+        mu,
         e,
     };
-    Ok(BuiltJoint::Clearance(joint, eccentricity))
+    Ok(BuiltJoint::Clearance(joint, eccentricity, law))
 }
 
 /// A revolute-clearance joint of clearance 0: the ideal revolute joint about the bore's

@@ -8,6 +8,7 @@ use super::schema::{DriveSpec, JointSpec, LimitsSpec, Vector};
 use crate::input::units::{Dim, Quantity};
 use crate::integrator::assembly::JointStart;
 use crate::mechanics::contact::clearance::ClearanceJoint;
+use crate::mechanics::contact::compliant::CompliantLaw;
 use crate::mechanics::joint::{Drive, Joint, JointKind, JointLimits, ScalarProfile};
 use crate::mechanics::{BodyRef, Model, Motion};
 use nalgebra::Vector3;
@@ -54,7 +55,9 @@ pub(super) fn joint_bodies(model: &Model, spec: &JointSpec, i: usize) -> R<(Body
 pub(super) enum BuiltJoint {
     Ideal(Joint, JointStart),
     /// The journal's initial offset from the bore axis (bore body frame).
-    Clearance(ClearanceJoint, Vector3<f64>),
+    /// A clearance joint, its journal's initial eccentricity, and its radial contact's
+    /// compliant law where it has one.
+    Clearance(ClearanceJoint, Vector3<f64>, Option<CompliantLaw>),
 }
 
 /// The `initial` block of an ideal joint (revolute: angle and rate; prismatic: position

@@ -6,6 +6,7 @@ mod bodies;
 mod build;
 mod clearance;
 pub mod closed_form;
+mod compliance;
 pub(crate) mod error;
 mod fields;
 mod forces;

@@ -13,6 +13,7 @@
 
 use super::build::RECORD_EVERY;
 use super::clearance::{AXIAL_PLAY, RIM_POINTS};
+use super::compliance::SLIP_SPEED;
 use super::integrator::apply_integrator;
 use super::schema::*;
 use crate::input::units::{Dim, Quantity};
@@ -550,6 +551,39 @@ impl Node for ContactSpec {
         v.node("against_shape", &mut self.against_shape.value);
         v.scalar("mu", &mut self.mu, Dim::NONE, NONE);
         v.scalar("e", &mut self.e, Dim::NONE, NONE);
+        if let Some(c) = &mut self.compliance {
+            v.node("compliance", &mut c.value);
+        }
+    }
+}
+
+impl Node for ComplianceSpec {
+    fn visit(&mut self, v: &mut dyn Visitor) {
+        for (name, m) in [
+            ("material", &mut self.material),
+            ("against_material", &mut self.against_material),
+        ] {
+            if let Some(m) = m {
+                let m = &mut m.value;
+                v.node(
+                    name,
+                    &mut With(|v: &mut dyn Visitor| {
+                        v.required("E", &mut m.youngs_modulus, Dim::PRESSURE);
+                        v.required("nu", &mut m.nu, Dim::NONE);
+                    }),
+                );
+            }
+        }
+        let hertz = Fallback::Rule("Hertz's, from `material`");
+        v.scalar("stiffness", &mut self.stiffness, Dim::NONE, hertz);
+        v.scalar(
+            "exponent",
+            &mut self.exponent,
+            Dim::NONE,
+            Fallback::Value(1.5),
+        );
+        let slip = Fallback::Value(SLIP_SPEED);
+        v.scalar("slip_speed", &mut self.slip_speed, Dim::VELOCITY, slip);
     }
 }
 
@@ -792,6 +826,9 @@ impl Node for JointSpec {
                 );
                 v.absent(name, &why);
             }
+        }
+        if let (true, Some(c)) = (clearance, &mut self.compliance) {
+            v.node("compliance", &mut c.value);
         }
         // (a velocity drive, a position table)
         let drive = self.drive.as_ref().map(|d| {

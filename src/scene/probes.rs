@@ -38,6 +38,7 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
             .iter()
             .map(|c| c.name.as_str())
             .chain(model.clearance_joints.iter().map(|j| j.name.as_str()))
+            .chain(model.compliant.iter().map(|c| c.name()))
             .collect();
         return Err(SceneError::at(
             line(name),
@@ -50,6 +51,18 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
         ));
     }
     Ok(ids)
+}
+
+/// An error where `name` is a compliant contact, for what only rigid ones have.
+fn refuse_compliant(model: &Model, name: &Name, field: &str, instead: &str) -> R<()> {
+    if model.compliant_points_of(&name.value).is_empty() {
+        return Ok(());
+    }
+    Err(SceneError::at(
+        line(name),
+        field,
+        format!("`{}` is compliant: {instead}", name.value),
+    ))
 }
 
 /// A joint of the scene by name: an ideal joint's index, or a clearance joint's.
@@ -165,6 +178,26 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
     let s = &m.value;
     let f = |x: &str| format!("{field}.{x}");
     check_one_measure(m, field)?;
+    for (n, force) in [(&s.gap, false), (&s.contact_force, true)] {
+        let Some(n) = n else { continue };
+        let compliant = model.compliant_points_of(&n.value);
+        if compliant.is_empty() {
+            continue;
+        }
+        let rigid = model.contact_candidates_of(&n.value);
+        return Ok(match force {
+            false => (Measure::CompliantGap { rigid, compliant }, Dim::LENGTH),
+            true => (Measure::CompliantForce { rigid, compliant }, Dim::FORCE),
+        });
+    }
+    if let Some(n) = &s.impulse {
+        refuse_compliant(
+            model,
+            n,
+            &f("impulse"),
+            "its force is finite: measure `contact_force`",
+        )?;
+    }
     if let Some(n) = &s.gap {
         return Ok((Measure::Gap(contact(model, n, &f("gap"))?), Dim::LENGTH));
     }
@@ -530,6 +563,13 @@ fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)
             field,
             "needs exactly one of `closes`, `opens`, `crosses`",
         ));
+    }
+    for (n, key) in [(&s.closes, "closes"), (&s.opens, "opens")] {
+        if let Some(n) = n {
+            let how =
+                "take `crosses: 0` of its `gap` (direction `down` for closing, `up` for opening)";
+            refuse_compliant(model, n, &f(key), how)?;
+        }
     }
     if let Some(n) = &s.closes {
         return Ok((Event::Closes(contact(model, n, &f("closes"))?), occurrence));

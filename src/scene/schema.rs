@@ -78,6 +78,9 @@ pub struct JointSpec {
     pub rim_points: Option<Q>,
     pub mu: Option<Q>,
     pub e: Option<Q>,
+    /// A revolute-clearance joint's radial contact: `rigid` (default) or `compliant`.
+    pub law: Option<Name>,
+    pub compliance: Option<Spanned<ComplianceSpec>>,
     /// Joint-space initial condition, which the assembly meets.
     pub initial: Option<Spanned<InitialSpec>>,
 }
@@ -227,6 +230,37 @@ pub struct ContactSpec {
     pub mu: Option<Q>,
     /// Newton restitution coefficient (default 0).
     pub e: Option<Q>,
+    /// `rigid` (default) or `compliant`.
+    pub law: Option<Name>,
+    /// The compliant law's data (`law: compliant`).
+    pub compliance: Option<Spanned<ComplianceSpec>>,
+}
+
+/// A compliant contact's force K δⁿ (1 + D δ̇): K from the materials (Hertz) or given.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComplianceSpec {
+    /// The first body's material (and the second's, unless `against_material` is given).
+    pub material: Option<Spanned<MaterialSpec>>,
+    pub against_material: Option<Spanned<MaterialSpec>>,
+    /// K in SI units (N/mⁿ), instead of the materials.
+    pub stiffness: Option<Q>,
+    /// n (default 1.5, Hertz's).
+    pub exponent: Option<Q>,
+    /// `matched` (default: D solved for so that an impact restitutes e), `flores` or
+    /// `hunt-crossley`.
+    pub dissipation: Option<Name>,
+    /// The regularised friction's slip speed v_ε (default 0.1 mm/s).
+    pub slip_speed: Option<Q>,
+}
+
+/// An elastic material: Young's modulus and Poisson's ratio.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    #[serde(rename = "E")]
+    pub youngs_modulus: Q,
+    pub nu: Q,
 }
 
 #[derive(Clone, Debug, Deserialize)]

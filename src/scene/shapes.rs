@@ -1,6 +1,7 @@
 //! Contact pairs: the shapes (sphere, plane, box, cylinder, cone, capsule, point, profile,
 //! convex part, mesh) on two bodies, with their friction and restitution.
 
+use super::compliance::{compliant_law, is_compliant};
 use super::error::{line, SceneError};
 use super::fields::{
     body_ref, non_negative, opt_vec3, orientation, positive, restitution, scalar, unit_vec3,
@@ -8,6 +9,7 @@ use super::fields::{
 };
 use super::schema::{ContactSpec, Name, PieceSpec, PrimitiveSpec, ProfileSpec, Vector, Q};
 use crate::input::units::{Dim, Quantity};
+use crate::mechanics::contact::compliant::{CompliantContact, CompliantSource};
 use crate::mechanics::contact::convex::ConvexPart;
 use crate::mechanics::contact::mesh::{self, MeshPart};
 use crate::mechanics::contact::profile::{Outline, Piece as ProfilePiece, Solid};
@@ -15,8 +17,14 @@ use crate::mechanics::{ContactPair, Model, Primitive};
 use nalgebra::{UnitQuaternion, Vector2, Vector3};
 use serde_saphyr::Spanned;
 
+/// A contact entry as built: a rigid pair, or a pair under a compliant law.
+pub(super) enum BuiltContact {
+    Rigid(ContactPair),
+    Compliant(CompliantContact),
+}
+
 /// Contact pair `i`.
-pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize, file: &str) -> R<ContactPair> {
+pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize, file: &str) -> R<BuiltContact> {
     let f = |s: &str| format!("contacts[{i}].{s}");
     let b1 = body_ref(model, &c.body, &f("body"))?;
     let b2 = match &c.against {
@@ -38,7 +46,7 @@ pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize, file: &str) -> R
         ));
     }
     let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
-    ContactPair::new(
+    let pair = ContactPair::new(
         name,
         b1,
         primitive(&c.shape, &f("shape"), file)?,
@@ -47,7 +55,35 @@ pub(super) fn contact(model: &Model, c: &ContactSpec, i: usize, file: &str) -> R
         mu,
         e,
     )
-    .map_err(|m| SceneError::at(line(&c.shape), f("shape"), m))
+    .map_err(|m| SceneError::at(line(&c.shape), f("shape"), m))?;
+    if !is_compliant(&c.law, &c.compliance, line(&c.body), &f)? {
+        return Ok(BuiltContact::Rigid(pair));
+    }
+    let law = compliant_law(
+        &c.compliance,
+        hertz_radius(&pair),
+        (mu, e),
+        line(&c.body),
+        &f,
+    )?;
+    Ok(BuiltContact::Compliant(CompliantContact {
+        source: CompliantSource::Pair(pair),
+        law,
+    }))
+}
+
+/// The effective radius R of Hertz's law for a pair: a sphere's against a plane,
+/// R₁R₂/(R₁ + R₂) for two spheres.
+fn hertz_radius(pair: &ContactPair) -> Result<f64, &'static str> {
+    match (&pair.shape1, &pair.shape2) {
+        (Primitive::Sphere { radius, .. }, Primitive::Plane { .. }) => Ok(*radius),
+        (Primitive::Sphere { radius: a, .. }, Primitive::Sphere { radius: b, .. }) => {
+            Ok(a * b / (a + b))
+        }
+        _ => Err(
+            "Hertz's stiffness follows from the materials for a sphere against a plane or a sphere",
+        ),
+    }
 }
 
 fn primitive(p: &Spanned<PrimitiveSpec>, field: &str, file: &str) -> R<Primitive> {

@@ -6,6 +6,7 @@
 //! them are never in a velocity problem.
 
 pub mod clearance;
+pub mod compliant;
 pub mod convex;
 pub mod mesh;
 pub mod primitives;
@@ -406,6 +407,19 @@ impl ContactPoint {
             Jacobian::Normal { g1, g2 } => g.row_mut(0).copy_from([g1, g2][side]),
         }
         g
+    }
+
+    /// Adds the generalized force of the local force `f` (n, t1, t2) on body 1, and its
+    /// reaction on body 2, to `out` (6 entries per body): G₁ᵀ f and G₂ᵀ f.
+    pub fn add_generalized(&self, f: &Vector3<f64>, out: &mut [f64]) {
+        for (side, body) in [self.body1, self.body2].into_iter().enumerate() {
+            if let Some(i) = body {
+                let w = self.block(side).transpose() * f;
+                for (o, x) in out[6 * i..6 * i + 6].iter_mut().zip(w.iter()) {
+                    *o += x;
+                }
+            }
+        }
     }
 
     /// The normal rows of the blocks (the gap's gradient), without the tangential ones.
