@@ -326,3 +326,31 @@ fn plain_moreau_jean_sinking_into_a_clearance_is_suspect() {
     let fine = run("combined-projection", "0.1 ms");
     assert_eq!(fine.suspect, None);
 }
+
+/// The bundled pendulum (70 µm joint) pushed along its joint's axis by 3 N for 0.3 s and
+/// then released: at h = 5, 10 and 20 ms a step carries the journal across its ring, and
+/// the ring's closest point and a guard on the far side both push (impulse pairs of up to
+/// 2.1e3 N·s at 10 ms and 4.3e3 N·s at 20 ms, against the 5.6 N·s a fine step's largest
+/// takes; the bar then loses 0.20 and 0.59 J after the release, against 0.04 J at 1 ms).
+/// Such a sample is suspect and says why; at 1 and 2 ms, where the run is clean, it is not.
+#[test]
+fn a_journal_squeezed_across_its_ring_by_a_coarse_step_is_suspect() {
+    let text = std::fs::read_to_string("studies/pendulum-clearance/scene.yaml").unwrap();
+    let run = |h: &str| {
+        let yaml = text.replace("h: 0.1 ms", &format!("h: {h}")).replace(
+            "record:\n  every: 10",
+            "forces:\n  - load: { body: bar, force_table: [[0, 0, 3 N, 0], [0.3 s, 0, 3 N, 0], [0.30001 s, 0, 0, 0]] }\nprobes:\n  - { name: angle, measure: { angle: pivot } }",
+        );
+        let subject = mc_study::study::Subject::from_yaml(&yaml, "pushed pendulum").unwrap();
+        let o = subject.run(&[], &[]);
+        assert!(o.error.is_none(), "{h}: {:?}", o.error);
+        o.suspect
+    };
+    for h in ["1 ms", "2 ms"] {
+        assert_eq!(run(h), None, "{h}");
+    }
+    for h in ["10 ms", "20 ms"] {
+        let why = run(h).unwrap_or_else(|| panic!("{h}: squeezed, unflagged"));
+        assert!(why.contains("squeezed across its ring"), "{h}: {why}");
+    }
+}

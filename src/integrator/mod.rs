@@ -14,6 +14,7 @@ mod rows;
 pub mod schedule;
 pub mod simulation;
 mod sinking;
+mod squeezed;
 mod subdivision;
 mod tunnelling;
 mod workspace;

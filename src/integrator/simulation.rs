@@ -124,6 +124,9 @@ pub struct RunStats {
     /// (`sinking.rs`), which a scheme that does not project does where h·v exceeds half
     /// the part's thickness.
     pub sank_through: u64,
+    /// Steps (or parts of steps) that end with a journal squeezed across its ring
+    /// (`squeezed.rs`): two points of one ring with opposing normals both pushing.
+    pub squeezed_steps: u64,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -170,6 +173,8 @@ pub struct Simulation {
     /// Per candidate, the ring (2 × joint + side) of a clearance-joint guard
     /// (`ClearanceJoint::is_guard`); `None` for every other contact.
     pub(super) guard_ring: Vec<Option<usize>>,
+    /// Per candidate, the ring whose closest point or guard it is (`squeezed.rs`).
+    pub(super) ring_member: Vec<Option<usize>>,
     /// Per candidate, whether it loses its friction while the mechanism settles.
     pub(super) settle_frictionless: Vec<bool>,
     pub(super) mask: Vec<bool>,
@@ -243,6 +248,7 @@ impl Simulation {
             .map(|&c| schedule.frictionless_while_settling(&model, c))
             .collect();
         let mut sim = Simulation {
+            ring_member: super::squeezed::ring_members(&model, &candidates),
             guard_ring,
             settle_frictionless,
             minv: inverse_mass(&model, &mask),

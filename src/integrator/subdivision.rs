@@ -96,6 +96,8 @@ impl Simulation {
         if coarse && depth.may_halve() {
             return self.halves(t_end, depth, ws);
         }
+        let squeezed = matches!(&trial, Ok(outcome) if self.squeezed(outcome));
+        self.stats.squeezed_steps += u64::from(squeezed);
         let trial = trial?;
         // Impacts are located on request, and always where one knocks another contact shut
         // within the step or two contacts close in it, and in the rest of a step split at

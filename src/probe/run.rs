@@ -160,6 +160,7 @@ fn merged(fine: &RunStats, coarse: &RunStats, fork: &RunStats) -> RunStats {
         halved_steps: fine.halved_steps + after(coarse.halved_steps, fork.halved_steps),
         plastic_steps: fine.plastic_steps + after(coarse.plastic_steps, fork.plastic_steps),
         sank_through: fine.sank_through + after(coarse.sank_through, fork.sank_through),
+        squeezed_steps: fine.squeezed_steps + after(coarse.squeezed_steps, fork.squeezed_steps),
         max_penetration: fine.max_penetration.max(coarse.max_penetration),
         max_joint_violation: fine.max_joint_violation.max(coarse.max_joint_violation),
         max_joint_angle_violation: fine

@@ -380,6 +380,13 @@ impl fmt::Display for SimulateReport {
                 st.halved_steps
             )?;
         }
+        if st.squeezed_steps > 0 {
+            writeln!(
+                f,
+                "squeezed         {} steps left a journal pushed from both sides of a ring: the step is too coarse for the joint (lower h)",
+                st.squeezed_steps
+            )?;
+        }
         if st.plastic_steps > 0 {
             writeln!(
                 f,

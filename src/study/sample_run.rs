@@ -81,6 +81,12 @@ fn suspicion(
             if params.scheme.projects() { "" } else { " (plain Moreau–Jean sinks up to h·v; combined-projection does not)" }
         ));
     }
+    if st.squeezed_steps > 0 {
+        why.push(format!(
+            "a journal was squeezed across its ring ({} steps): two points on opposite sides of one ring pushed at once, which the step's motion across the clearance causes; lower h",
+            st.squeezed_steps
+        ));
+    }
     if params.scheme.projects() {
         if st.max_penetration > allowed {
             why.push(format!(
