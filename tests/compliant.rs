@@ -348,3 +348,45 @@ fn the_bundled_hertz_ball_rebounds_at_its_restitution() {
     );
     assert!(got.peak < 658.5 && got.peak > 0.85 * 658.5, "{}", got.peak);
 }
+
+/// `simulate --out` records a compliant contact's gap and force: over the ball's impact
+/// the recorded force is the elastic law's K δ^(3/2) wherever the ball is at its deepest
+/// (no rate there), and the force–gap curve of the bench is the law's.
+#[test]
+fn a_recorded_run_holds_the_compliant_force_and_gap() {
+    let scene = common::bundled("hertz-ball");
+    let dir = common::scratch("compliant-trajectory");
+    let out = dir.join("run.csv");
+    let options = mc_study::single_run::SimulateOptions {
+        duration: Some(0.06),
+        trajectory: Some(out.clone()),
+        drawing: None,
+    };
+    mc_study::single_run::simulate(&scene, "hertz-ball", &options).unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("{name} in {header:?}"))
+    };
+    let (gap, force) = (col("plate.gap"), col("plate.fn"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let deepest = rows
+        .iter()
+        .min_by(|a, b| a[gap].total_cmp(&b[gap]))
+        .unwrap();
+    let e_star = E / (2.0 * (1.0 - NU * NU));
+    let k = 4.0 / 3.0 * e_star * R.sqrt();
+    let elastic = k * (-deepest[gap]).powf(1.5);
+    assert!(
+        (deepest[force] / elastic - 1.0).abs() < 0.02,
+        "at the deepest point: {} N against K δ^1.5 = {elastic} N",
+        deepest[force]
+    );
+    assert!(rows.iter().all(|r| r[gap] >= 0.0 || r[force] > 0.0));
+}

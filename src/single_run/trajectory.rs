@@ -4,6 +4,7 @@
 //! curves a test bench records: force against displacement is two of its columns.
 
 use crate::integrator::Simulation;
+use crate::mechanics::contact::compliant::CompliantSource;
 use crate::mechanics::Motion;
 use crate::probe::{reaction, Measure, Probe, ProbeKind, Transmission};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch};
@@ -40,6 +41,8 @@ const BODY_FIELDS: [&str; 13] = [
     "x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz",
 ];
 const CONTACT_FIELDS: [&str; 4] = ["gap", "pn", "pt1", "pt2"];
+/// A compliant contact point's gap and force (N) on body 1 in its frame (n, t1, t2).
+const COMPLIANT_FIELDS: [&str; 4] = ["gap", "fn", "ft1", "ft2"];
 
 impl Trajectory {
     /// An empty trajectory with the columns of `sim`'s model and of the value `probes`'
@@ -53,6 +56,18 @@ impl Trajectory {
         for &c in sim.contact_ids() {
             let base = m.candidate_name(c);
             columns.extend(CONTACT_FIELDS.iter().map(|f| format!("{base}.{f}")));
+        }
+        for c in &m.compliant {
+            for k in 0..c.points() {
+                let base = match (&c.source, c.points()) {
+                    (CompliantSource::Journal(_), _) => {
+                        format!("{}.ring{}", c.name(), ["-", "+"][k])
+                    }
+                    (_, 1) => c.name().to_string(),
+                    _ => format!("{}[{k}]", c.name()),
+                };
+                columns.extend(COMPLIANT_FIELDS.iter().map(|f| format!("{base}.{f}")));
+            }
         }
         let mut readings = Vec::new();
         let joints = (0..m.joints.len()).map(|j| (&m.joints[j].name, Transmission::of_joint(m, j)));
@@ -110,6 +125,9 @@ impl Trajectory {
         }
         for (cp, imp) in sim.contact_points().iter().zip(sim.impulses()) {
             row.extend_from_slice(&[cp.gap(), imp.x, imp.y, imp.z]);
+        }
+        for (cp, f) in sim.compliant_points() {
+            row.extend_from_slice(&[cp.gap(), f.x, f.y, f.z]);
         }
         for r in &self.readings {
             match r {
