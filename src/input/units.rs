@@ -263,6 +263,7 @@ impl DisplayUnit {
         let options: &[(f64, &str)] = match dim {
             Dim::LENGTH => &[(1.0, "m"), (1e3, "mm"), (1e6, "µm")],
             Dim::TIME => &[(1.0, "s"), (1e3, "ms"), (1e6, "µs")],
+            Dim::PRESSURE => &[(1e-9, "GPa"), (1e-6, "MPa"), (1e-3, "kPa"), (1.0, "Pa")],
             _ => return DisplayUnit::si(dim),
         };
         let (per_si, label) = options
@@ -377,6 +378,14 @@ mod tests {
         assert_eq!(DisplayUnit::auto(Dim::LENGTH, 5e-7).label, "µm");
         assert_eq!(DisplayUnit::auto(Dim::TIME, 0.25).label, "s");
         assert_eq!(DisplayUnit::auto(Dim::FORCE, 1e-3).label, "N");
+        assert_eq!(DisplayUnit::auto(Dim::PRESSURE, 2.1e10).label, "GPa");
+        assert_eq!(DisplayUnit::auto(Dim::PRESSURE, 2e7).label, "MPa");
+        let gpa = DisplayUnit::parse("GPa", Dim::PRESSURE).unwrap();
+        assert!((gpa.of(2.1e11) - 210.0).abs() < 1e-9);
+        assert_eq!(
+            parse_quantity("210 GPa").unwrap().value(Dim::PRESSURE),
+            Ok(2.1e11)
+        );
         assert_eq!(DisplayUnit::for_values("s", &[4.7e-3]).label, "ms");
         assert_eq!(DisplayUnit::for_values("1", &[3.0]).heading("y"), "y");
         assert_eq!(DisplayUnit::for_values("m", &[0.69]).heading("x"), "x [m]");

@@ -107,12 +107,12 @@ impl Fidelity {
             None => "",
         };
         format!(
-            "{preset}h={:e} {} θ={} tol={:e} proj={:e}{located}{window}",
-            self.h,
+            "{preset}h={} {} θ={} tol={} proj={}{located}{window}",
+            exp_form(self.h),
             self.scheme.name(),
             self.theta,
-            self.solver_tolerance,
-            self.projection_tolerance
+            exp_form(self.solver_tolerance),
+            exp_form(self.projection_tolerance)
         )
     }
 
