@@ -566,3 +566,20 @@ fn hertz_stiffness_needs_a_sphere() {
         "{e}"
     );
 }
+
+#[test]
+fn a_refinement_window_needs_a_rigid_contact() {
+    let text = GOOD_BALL.replacen(
+        "    e: 0.5\n",
+        "    e: 0.5\n    law: compliant\n    compliance: { stiffness: 1e9 }\nrefine: { after: floor, for: 1 ms, h: 1 us }\n",
+        1,
+    );
+    let Err(e) = Scene::from_yaml(&text, "scene.yaml") else {
+        panic!("a refinement window after a compliant contact was accepted");
+    };
+    let e = e.to_string();
+    assert!(
+        e.starts_with("scene.yaml:17:") && e.contains("refine.after") && e.contains("is compliant"),
+        "{e}"
+    );
+}

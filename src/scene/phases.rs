@@ -16,6 +16,7 @@ fn settle_friction(model: &Model, names: &Spanned<Vec<Name>>) -> R<Vec<String>> 
         model.contacts.iter().any(|c| c.name == n)
             || model.clearance_joints.iter().any(|j| j.name == n)
             || model.joints.iter().any(|j| j.name == n)
+            || model.compliant.iter().any(|c| c.name() == n)
     };
     names
         .value

@@ -32,6 +32,16 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
             ),
         ));
     }
+    if ids.is_empty() && !model.compliant_points_of(&name.value).is_empty() {
+        return Err(SceneError::at(
+            line(name),
+            field,
+            format!(
+                "`{}` is compliant: this needs a rigid contact (an event of a compliant contact is `crosses: 0` of its `gap`)",
+                name.value
+            ),
+        ));
+    }
     if ids.is_empty() {
         let known: Vec<&str> = model
             .contacts
