@@ -231,14 +231,15 @@ impl Simulation {
         let state = model.initial_state();
         let candidates = model.contact_candidates();
         let mask = model.dof_mask();
+        let ring_member = super::squeezed::ring_members(&model, &candidates);
         let guard_ring: Vec<Option<usize>> = candidates
             .iter()
-            .map(|c| match *c {
+            .zip(&ring_member)
+            .map(|(c, &ring)| match *c {
                 Candidate::Clearance { joint, point }
                     if model.clearance_joints[joint].is_guard(point) =>
                 {
-                    let (side, _) = model.clearance_joints[joint].guard(point);
-                    Some(2 * joint + usize::from(side > 0.0))
+                    ring
                 }
                 _ => None,
             })
@@ -248,7 +249,7 @@ impl Simulation {
             .map(|&c| schedule.frictionless_while_settling(&model, c))
             .collect();
         let mut sim = Simulation {
-            ring_member: super::squeezed::ring_members(&model, &candidates),
+            ring_member,
             guard_ring,
             settle_frictionless,
             minv: inverse_mass(&model, &mask),

@@ -43,8 +43,8 @@ pub(super) fn is_compliant(
 }
 
 /// The law of a compliant entry, with friction `mu` and restitution `e`; `radius` is the
-/// effective radius R of Hertz's K = (4/3) E* √R where the shapes give one, else `why_not`
-/// says why the stiffness must be given.
+/// effective radius R of Hertz's K = (4/3) E* √R where the shapes give one, else why the
+/// stiffness must be given.
 pub(super) fn compliant_law(
     compliance: &Option<Spanned<ComplianceSpec>>,
     radius: Result<f64, &str>,
@@ -65,25 +65,29 @@ pub(super) fn compliant_law(
         .exponent
         .as_ref()
         .map_or(Ok(1.5), |q| positive(q, Dim::NONE, &f("exponent")))?;
-    let dissipation = match c.dissipation.as_ref().map(|d| d.value.as_str()) {
-        None | Some("matched") => Dissipation::matched(e, exponent),
-        Some("flores") => Dissipation::Flores,
-        Some("hunt-crossley") => Dissipation::HuntCrossley,
-        Some(other) => {
-            return Err(SceneError::at(
-                c.dissipation.as_ref().and_then(line),
-                f("dissipation"),
-                format!("unknown dissipation `{other}` (matched, flores, hunt-crossley)"),
-            ))
-        }
-    };
-    if e <= 0.0 && dissipation != Dissipation::HuntCrossley {
+    let kind = c
+        .dissipation
+        .as_ref()
+        .map_or("matched", |d| d.value.as_str());
+    if !["matched", "flores", "hunt-crossley"].contains(&kind) {
+        return Err(SceneError::at(
+            c.dissipation.as_ref().and_then(line),
+            f("dissipation"),
+            format!("unknown dissipation `{kind}` (matched, flores, hunt-crossley)"),
+        ));
+    }
+    if e <= 0.0 && kind != "hunt-crossley" {
         return Err(SceneError::at(
             line(spec),
             field("e"),
             "must be positive for a compliant contact: a law K δⁿ (1 + D δ̇) that restitutes nothing needs an infinite D (give the e of the impact, or `dissipation: hunt-crossley`, whose D = 3(1 − e)/(2 v₀) stays finite)",
         ));
     }
+    let dissipation = match kind {
+        "flores" => Dissipation::Flores,
+        "hunt-crossley" => Dissipation::HuntCrossley,
+        _ => Dissipation::matched(e, exponent),
+    };
     let stiffness = match (&c.stiffness, &c.material) {
         (Some(k), None) => positive(k, Dim::NONE, &f("stiffness"))?,
         (None, Some(m)) => {

@@ -14,7 +14,7 @@
 
 use super::clearance::ClearanceJoint;
 use super::{ContactPair, ContactPoint};
-use crate::mechanics::body::{BodyRef, Pose};
+use crate::mechanics::body::Pose;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
 /// The impact speed a contact is taken to have closed at when it closed slower (m/s): a
@@ -46,8 +46,9 @@ impl Dissipation {
         if e >= 1.0 {
             return Dissipation::Matched(0.0);
         }
+        // e ≤ 0 needs an infinite χ: the bracket stops growing at 1e12
         let (mut lo, mut hi) = (0.0, 1.0);
-        while rebound(hi, n) > e {
+        while rebound(hi, n) > e && hi < 1e12 {
             hi *= 2.0;
         }
         for _ in 0..45 {
@@ -215,13 +216,6 @@ impl CompliantContact {
         match &self.source {
             CompliantSource::Pair(p) => &p.name,
             CompliantSource::Journal(j) => &j.name,
-        }
-    }
-
-    pub fn bodies(&self) -> [BodyRef; 2] {
-        match &self.source {
-            CompliantSource::Pair(p) => [p.body1, p.body2],
-            CompliantSource::Journal(j) => [j.journal_body, j.bore_body],
         }
     }
 
