@@ -2,8 +2,8 @@
 //! (a coarse step under a load out of the joint's plane) can end with the ring's closest
 //! point and a guard on the far side of the same ring, or two such guards, both pushing.
 //! The clearance leaves no room for both to touch; the velocity problem then finds a pair
-//! of large, nearly cancelling impulses (thousands of N·s against a step's m g h of
-//! 0.01 N·s), and their friction stops a swinging bar in one step. Such a step is counted
+//! of large, nearly cancelling impulses (thousands of N·s, where a 1 kg bar's weight over
+//! a 10 ms step is 0.1 N·s), and their friction brakes a swinging bar. Such a step is counted
 //! (`RunStats::squeezed_steps`), which marks the sample suspect: its step is too coarse
 //! for the joint. (Taken in halves, the pair's impulses fall to a few N·s, but the
 //! trajectory is no better: the flanges then wedge the journal and the bar gains energy.)
