@@ -299,17 +299,23 @@ fn friction_in_a_tight_journal_takes_as_much_energy_at_coarse_steps_as_at_fine_o
     );
 }
 
-/// Plain Moreau–Jean does not project: at a coarse step the bundled pendulum's journal
-/// sinks into its 70 µm bore by a large part of the clearance, and the sample says so
-/// (`suspect`, naming the clearance). At the bundled fine step, with the combined scheme
-/// the scene uses, it does not.
+/// Plain Moreau–Jean does not project: at a coarse step (5 ms) the bundled pendulum's
+/// journal sinks into its 70 µm bore, by 8.7e-4 m over the run's second, and the sample
+/// says so (`suspect`, naming the clearance). At the bundled fine step, with the combined
+/// scheme the scene uses, it does not. (The scene has no probes: one at its end makes the
+/// run go to its end.)
 #[test]
 fn plain_moreau_jean_sinking_into_a_clearance_is_suspect() {
     let text = std::fs::read_to_string("studies/pendulum-clearance/scene.yaml").unwrap();
     let run = |scheme: &str, h: &str| {
+        // a probe at the run's end, so that the run goes to its end
         let yaml = text
             .replace("scheme: combined-projection", &format!("scheme: {scheme}"))
-            .replace("h: 0.1 ms", &format!("h: {h}"));
+            .replace("h: 0.1 ms", &format!("h: {h}"))
+            .replace(
+                "record:\n  every: 10",
+                "probes:\n  - { name: angle, measure: { angle: pivot } }",
+            );
         let subject = mc_study::study::Subject::from_yaml(&yaml, "pendulum-clearance").unwrap();
         let o = subject.run(&[], &[]);
         assert!(o.error.is_none(), "{scheme} at {h}: {:?}", o.error);
@@ -320,7 +326,7 @@ fn plain_moreau_jean_sinking_into_a_clearance_is_suspect() {
         o
     };
     let coarse = run("moreau-jean", "5 ms");
-    assert!(coarse.diagnostics.max_penetration > 7e-6);
+    assert!(coarse.diagnostics.max_penetration > 7e-5);
     let why = coarse.suspect.expect("a coarse plain run is suspect");
     assert!(why.contains("smallest clearance (7.000e-5 m)"), "{why}");
     let fine = run("combined-projection", "0.1 ms");
