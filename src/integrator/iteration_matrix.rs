@@ -271,31 +271,21 @@ fn compliant_blocks(
     off: &mut Vec<((usize, usize), Matrix6<f64>)>,
     at: &FormedAt,
 ) {
-    let mut first = 0;
     let mut blocks = Vec::new();
-    for c in &at.model.compliant {
-        let onset = &at.onset[first..first + c.points()];
-        first += c.points();
+    for (c, span) in at.model.compliant_spans() {
         blocks.clear();
         c.jacobian(
             at.poses,
             at.twists,
-            onset,
+            &at.onset[span],
             (at.pose_weight, at.velocity_weight),
             &mut blocks,
         );
-        for &(i, j, b) in &blocks {
-            if !(moves(at.mask, i) && moves(at.mask, j)) {
-                continue;
-            }
-            let mut b = b;
-            for r in 0..6 {
-                for k in 0..6 {
-                    if !at.mask[6 * i + r] || !at.mask[6 * j + k] {
-                        b[(r, k)] = 0.0;
-                    }
-                }
-            }
+        // the held degrees of freedom are clamped where the blocks are read (`clamp_held`)
+        for &(i, j, b) in blocks
+            .iter()
+            .filter(|(i, j, _)| moves(at.mask, *i) && moves(at.mask, *j))
+        {
             let blk = if i == j {
                 &mut diag[i]
             } else {

@@ -205,6 +205,8 @@ pub struct Simulation {
     /// Per point of the compliant contacts (`Model::compliant_points`), the approach speed
     /// at which its present contact began; `None` while it is open.
     pub(super) compliant_onset: Vec<Option<f64>>,
+    /// The compliant points at the current state with their forces (`update_compliant`).
+    pub(super) compliant: Vec<(ContactPoint, Vector3<f64>)>,
     pub stats: RunStats,
     /// The first impact located within the last step, if one was.
     pub(super) located_impact: Option<LocatedImpact>,
@@ -266,6 +268,7 @@ impl Simulation {
             refine_until: None,
             checked_poses: Vec::new(),
             compliant_onset: vec![None; model.compliant_points()],
+            compliant: Vec::new(),
             model,
             params,
             schedule,
@@ -275,6 +278,7 @@ impl Simulation {
             workspace: None,
         };
         sim.update_geometry(None, None);
+        sim.update_compliant(false);
         Ok(sim)
     }
 
@@ -855,7 +859,7 @@ impl Simulation {
         }
         let replaced = self.update_geometry(points, report.projection.joint_violation);
         ws.activation.keep_points(replaced);
-        self.update_onsets();
+        self.update_compliant(true);
         self.stats.sank_through += u64::from(self.sank_past(&sinking, &self.points));
         report.active_contacts = self.active.len();
         report.newton_iterations = vs.newton_iterations;
@@ -866,42 +870,35 @@ impl Simulation {
         report
     }
 
-    /// Each compliant point's closing speed after a step: kept while it stays closed, its
-    /// approach speed now where it has just closed (the speed its force took while it
-    /// closed), none where it is open.
-    fn update_onsets(&mut self) {
+    /// The compliant points at the current state, each with its force (`compliant_points`);
+    /// at a step's end (`step_end`), each point's closing speed first: kept while it stays
+    /// closed, its approach speed now where it has just closed (the speed its force took
+    /// while it closed), none where it is open.
+    fn update_compliant(&mut self, step_end: bool) {
         let (poses, v) = (&self.state.poses, self.state.v.as_slice());
-        let mut first = 0;
-        for c in &self.model.compliant {
-            for k in 0..c.points() {
-                let onset = &mut self.compliant_onset[first + k];
+        self.compliant.clear();
+        for (c, span) in self.model.compliant_spans() {
+            let law = c.point_law();
+            for (k, i) in span.enumerate() {
                 let point = c.evaluate(k, poses);
-                *onset = match (point.gap() < 0.0, *onset) {
-                    (false, _) => None,
-                    (true, Some(o)) => Some(o),
-                    (true, None) => Some((-point.normal_velocity(v)).max(0.0)),
-                };
+                let onset = &mut self.compliant_onset[i];
+                if step_end {
+                    *onset = match (point.gap() < 0.0, *onset) {
+                        (false, _) => None,
+                        (true, Some(o)) => Some(o),
+                        (true, None) => Some((-point.normal_velocity(v)).max(0.0)),
+                    };
+                }
+                let force = law.local_force(&point, v, *onset);
+                self.compliant.push((point, force));
             }
-            first += c.points();
         }
     }
 
     /// The compliant contacts' points at the current state, over all of them in order,
     /// each with its force on body 1 in its local frame (n, t1, t2).
-    pub fn compliant_points(&self) -> Vec<(ContactPoint, Vector3<f64>)> {
-        let (poses, v) = (&self.state.poses, self.state.v.as_slice());
-        let mut first = 0;
-        let mut out = Vec::new();
-        for c in &self.model.compliant {
-            let law = c.point_law();
-            for k in 0..c.points() {
-                let point = c.evaluate(k, poses);
-                let force = law.local_force(&point, v, self.compliant_onset[first + k]);
-                out.push((point, force));
-            }
-            first += c.points();
-        }
-        out
+    pub fn compliant_points(&self) -> &[(ContactPoint, Vector3<f64>)] {
+        &self.compliant
     }
 
     /// The impulses of the contacts `active` over a step; every other contact has none.

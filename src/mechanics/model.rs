@@ -10,6 +10,7 @@ use super::force::Force;
 use super::joint::{BilateralRow, Joint};
 use crate::math::blocks::vector6_at;
 use nalgebra::{DVector, Vector3};
+use std::ops::Range;
 
 /// A unilateral contact candidate: a point of a contact pair, or a joint stop.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,15 +129,10 @@ impl Model {
 
     /// The points (in `compliant_points` order) of the compliant contact named `name`.
     pub fn compliant_points_of(&self, name: &str) -> Vec<usize> {
-        let mut first = 0;
-        let mut ids = Vec::new();
-        for c in &self.compliant {
-            if c.name() == name {
-                ids.extend(first..first + c.points());
-            }
-            first += c.points();
-        }
-        ids
+        self.compliant_spans()
+            .filter(|(c, _)| c.name() == name)
+            .flat_map(|(_, span)| span)
+            .collect()
     }
 
     /// Generalized mass times `v` (diag(m I, I_body) per body).
@@ -155,6 +151,15 @@ impl Model {
     /// in `wrench`'s `onset`.
     pub fn compliant_points(&self) -> usize {
         self.compliant.iter().map(CompliantContact::points).sum()
+    }
+
+    /// Each compliant contact with the span of its points in `compliant_points` order.
+    pub fn compliant_spans(&self) -> impl Iterator<Item = (&CompliantContact, Range<usize>)> {
+        self.compliant.iter().scan(0, |first, c| {
+            let span = *first..*first + c.points();
+            *first = span.end;
+            Some((c, span))
+        })
     }
 
     /// Generalized applied wrench F(t, q, v): gravity, −Ω × IΩ, the force elements and the
@@ -186,16 +191,8 @@ impl Model {
         for j in &self.joints {
             j.apply_effort(t, poses, out.as_mut_slice());
         }
-        let mut first = 0;
-        for c in &self.compliant {
-            let n = c.points();
-            c.apply(
-                poses,
-                v.as_slice(),
-                &onset[first..first + n],
-                out.as_mut_slice(),
-            );
-            first += n;
+        for (c, span) in self.compliant_spans() {
+            c.apply(poses, v.as_slice(), &onset[span], out.as_mut_slice());
         }
         for (i, b) in self.bodies.iter().enumerate() {
             if b.motion != Motion::Free || b.planar.is_some() {

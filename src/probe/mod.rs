@@ -10,7 +10,7 @@ use crate::integrator::Simulation;
 use crate::mechanics::force::TorsionalSpring;
 use crate::mechanics::joint::Drive;
 use crate::mechanics::model::{Candidate, State};
-use crate::mechanics::{BodyRef, Model, Pose};
+use crate::mechanics::{BodyRef, ContactPoint, Model, Pose};
 use curve::{Curve, CurveCells};
 use nalgebra::{Matrix3x6, Vector3, Vector6};
 use std::collections::VecDeque;
@@ -212,16 +212,18 @@ pub fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vect
         None => (a.expect("a joint has a body"), -1.0),
     };
     let mut w = Vector6::zeros();
-    let contact = |w: &mut Vector6<f64>, c: usize| {
-        let cp = &sim.contact_points()[c];
-        let p = sim.impulses()[c];
+    // a contact point's impulse `p` (local frame) on the target
+    let point = |w: &mut Vector6<f64>, cp: &ContactPoint, p: &Vector3<f64>| {
         let (g1, g2) = cp.blocks();
         if cp.body1 == Some(target) {
-            add_impulse(w, &g1, &p);
+            add_impulse(w, &g1, p);
         }
         if cp.body2 == Some(target) {
-            add_impulse(w, &g2, &p);
+            add_impulse(w, &g2, p);
         }
+    };
+    let contact = |w: &mut Vector6<f64>, c: usize| {
+        point(w, &sim.contact_points()[c], &sim.impulses()[c]);
     };
     match through {
         Transmission::Joint { joint, rows, stops } => {
@@ -246,20 +248,9 @@ pub fn reaction(sim: &Simulation, through: &Transmission) -> (Vector3<f64>, Vect
         } => {
             candidates.iter().for_each(|&c| contact(&mut w, c));
             // a compliant ring's force at the state, as the impulse of a step at it
-            let points = match compliant.is_empty() {
-                true => Vec::new(),
-                false => sim.compliant_points(),
-            };
             for &c in compliant {
-                let (cp, f) = &points[c];
-                let (g1, g2) = cp.blocks();
-                let p = f * sim.h();
-                if cp.body1 == Some(target) {
-                    add_impulse(&mut w, &g1, &p);
-                }
-                if cp.body2 == Some(target) {
-                    add_impulse(&mut w, &g2, &p);
-                }
+                let (cp, f) = &sim.compliant_points()[c];
+                point(&mut w, cp, &(f * sim.h()));
             }
         }
     }
