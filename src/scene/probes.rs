@@ -37,7 +37,7 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
             line(name),
             field,
             format!(
-                "`{}` is compliant: this needs a rigid contact (an event of a compliant contact is `crosses: 0` of its `gap`)",
+                "`{}` is compliant: this needs a rigid contact (a compliant contact's force is finite: measure its `contact_force`; its touch and release are `crosses: 0` of its `gap`, `direction: down` and `up`)",
                 name.value
             ),
         ));
@@ -61,18 +61,6 @@ pub(crate) fn contact(model: &Model, name: &Name, field: &str) -> R<Vec<usize>> 
         ));
     }
     Ok(ids)
-}
-
-/// An error where `name` is a compliant contact, for what only rigid ones have.
-fn refuse_compliant(model: &Model, name: &Name, field: &str, instead: &str) -> R<()> {
-    if model.compliant_points_of(&name.value).is_empty() {
-        return Ok(());
-    }
-    Err(SceneError::at(
-        line(name),
-        field,
-        format!("`{}` is compliant: {instead}", name.value),
-    ))
 }
 
 /// A joint of the scene by name: an ideal joint's index, or a clearance joint's.
@@ -199,14 +187,6 @@ fn measure(model: &Model, m: &Spanned<MeasureSpec>, field: &str) -> R<(Measure, 
             false => (Measure::CompliantGap { rigid, compliant }, Dim::LENGTH),
             true => (Measure::CompliantForce { rigid, compliant }, Dim::FORCE),
         });
-    }
-    if let Some(n) = &s.impulse {
-        refuse_compliant(
-            model,
-            n,
-            &f("impulse"),
-            "its force is finite: measure `contact_force`",
-        )?;
     }
     if let Some(n) = &s.gap {
         return Ok((Measure::Gap(contact(model, n, &f("gap"))?), Dim::LENGTH));
@@ -573,13 +553,6 @@ fn event(model: &Model, e: &Spanned<EventSpec>, field: &str) -> R<(Event, usize)
             field,
             "needs exactly one of `closes`, `opens`, `crosses`",
         ));
-    }
-    for (n, key) in [(&s.closes, "closes"), (&s.opens, "opens")] {
-        if let Some(n) = n {
-            let how =
-                "take `crosses: 0` of its `gap` (direction `down` for closing, `up` for opening)";
-            refuse_compliant(model, n, &f(key), how)?;
-        }
     }
     if let Some(n) = &s.closes {
         return Ok((Event::Closes(contact(model, n, &f("closes"))?), occurrence));
