@@ -6,7 +6,7 @@
 //! `-- ball` or `-- body` for one scene). Times are medians of 3 runs on one core.
 
 use mc_study::integrator::Scheme;
-use mc_study::report::figures::{save, WorkPrecisionFigure};
+use mc_study::report::figures::{save, WorkPoint, WorkPrecisionFigure};
 use mc_study::scene::Scene;
 use mc_study::study::sample_run::Subject;
 use std::path::Path;
@@ -123,7 +123,11 @@ fn main() {
                     names[worst]
                 );
                 csv += &format!("{},{h:e},{ms:.4},{err:e},{}\n", scheme.name(), names[worst]);
-                pts.push((ms, err));
+                pts.push(WorkPoint {
+                    cost: ms,
+                    error: err,
+                    adaptive: false,
+                });
             }
             series.push((scheme.name().to_string(), pts));
         }

@@ -296,3 +296,49 @@ fn three_sigma_clearances_run_through() {
         assert!((fc1 / 13.7 - 1.0).abs() < 0.1, "c = {c}: FC-1 = {fc1}");
     }
 }
+
+/// `studies/c60/study-adaptive.yaml` (step control at τ = 2e-4, h_max = 50 µs) on
+/// `converge`'s samples (the nominal and the first three of the design) against its
+/// reference (fixed steps of 0.5 µs, a 0.1 µs window, solver 1e-8): every output within
+/// 1 % of its Monte-Carlo σ (the 512-sample study's, studies/c60/README.md), no penetration
+/// beyond the projection tolerance, and fewer steps than the fixed default.
+#[test]
+fn the_adaptive_study_is_within_one_percent_of_sigma_on_converges_samples() {
+    use mc_study::study::converge::{sweep, Ladder};
+    use mc_study::study::Study;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/c60/study-adaptive.yaml");
+    let study = Study::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+    let Subject::Mechanism(scene) = &study.subject else {
+        panic!("a mechanism")
+    };
+    assert!(scene.params.step_control.is_some());
+    let mut ladder = Ladder::around_scene(scene, 3);
+    ladder.fidelities = vec![mc_study::study::converge::Fidelity::of(&scene.params)];
+    let sigma = vec![
+        0.087, 0.52e-6, 19.3e-6, 41.5e-6, 2.7e-6, 19.2e-6, 6.5e-6, 26.8e-6, 33.2e-6, 0.213,
+    ];
+    let names: Vec<&str> = study.outputs.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names.len(), sigma.len(), "{names:?}");
+    let conv = sweep(&study, &ladder, Some(sigma), |_, _, _| {}).unwrap();
+    for (k, name) in names.iter().enumerate() {
+        let e = conv.error(0, k);
+        assert!(e < 0.01, "{name}: {:.2} % of σ", 100.0 * e);
+    }
+    // the nominal sample's steps: fewer than the fixed default's 4000
+    let mut sim = scene.simulation().unwrap();
+    sim.run_until(8e-3, |_, _| {}).unwrap();
+    assert!(sim.stats.steps < 3000, "{} steps", sim.stats.steps);
+    assert!(
+        sim.stats.max_penetration < 1e-9,
+        "{:e}",
+        sim.stats.max_penetration
+    );
+    eprintln!(
+        "adaptive c60: {} steps, {} taken again, errors {:?}",
+        sim.stats.steps,
+        sim.stats.rejected_steps,
+        (0..names.len())
+            .map(|k| conv.error(0, k))
+            .collect::<Vec<_>>()
+    );
+}

@@ -22,7 +22,7 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     let mut ladder = Ladder::around(&scene.params, 2);
     // the full ladder also varies the tolerances, θ, the scheme, and holds the presets
     let labels: Vec<String> = ladder.fidelities.iter().map(|f| f.label()).collect();
-    assert_eq!(labels.len(), 13, "{labels:#?}");
+    assert_eq!(labels.len(), 16, "{labels:#?}");
     // around the combined scheme it also locates the impacts (the ball's moreau-jean
     // scheme has none to locate)
     let mut combined = scene.params.clone();
@@ -32,7 +32,7 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
         .iter()
         .map(|f| f.label())
         .collect();
-    assert_eq!(around_combined.len(), 14, "{around_combined:#?}");
+    assert_eq!(around_combined.len(), 17, "{around_combined:#?}");
     let located: Vec<&String> = around_combined
         .iter()
         .filter(|l| l.ends_with(" impacts located"))
@@ -44,7 +44,7 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     );
     // a scene without a refinement window has no extrapolation rung
     let ball_scene = Ladder::around_scene(scene, 2);
-    assert_eq!(ball_scene.fidelities.len(), 13);
+    assert_eq!(ball_scene.fidelities.len(), 16);
     // the circuit breaker's plain window gets a rung with the extrapolation, and its
     // recommendation says what to change in the scene
     let c60 = Study::load(
@@ -87,6 +87,28 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
         .find(|f| f.preset.is_some())
         .unwrap();
     assert_eq!(fast.yaml(), "fidelity: { preset: fast }\n");
+    // three adaptive rungs at 1e-3, 3e-4 and 1e-4 (the ball's study has no step control),
+    // the largest step ten of the study's
+    let adaptive: Vec<&Fidelity> = ladder
+        .fidelities
+        .iter()
+        .filter(|f| f.step_control.is_some())
+        .collect();
+    let taus: Vec<f64> = adaptive
+        .iter()
+        .map(|f| f.step_control.as_ref().unwrap().tolerance)
+        .collect();
+    assert_eq!(taus, [1e-3, 3e-4, 1e-4]);
+    assert!(adaptive
+        .iter()
+        .all(|f| f.step_control.as_ref().unwrap().h_max == 1e-3));
+    assert!(adaptive[0].label().starts_with("τ=1e-3 adaptive"));
+    assert!(adaptive[0]
+        .yaml()
+        .contains("step_control: { tolerance: 1e-3, h_max: 1e-3 s"));
+    // the fixed rungs switch a controlled study's control off
+    assert!(ladder.fidelities[0].yaml().contains("step_control: off"));
+    let adaptive_rungs: Vec<Fidelity> = adaptive.into_iter().cloned().collect();
     // step sizes only, coarse to fine: 1e-3, 5e-4, 2e-4, 1e-4, 5e-5
     ladder.fidelities.truncate(5);
     let runs = AtomicUsize::new(0);
@@ -157,6 +179,28 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     // the CSV: a header and one line per run and output
     let csv = conv.csv();
     assert_eq!(csv.lines().count(), 1 + 6 * 3 * conv.outputs.len());
+    // with the adaptive rungs: their impact times are within 1e-8 relative of the
+    // reference (the step shrinks at the impact), and they share the plot as triangles
+    ladder.fidelities.extend(adaptive_rungs);
+    let conv = sweep(&study, &ladder, None, |_, _, _| {}).unwrap();
+    for f in 5..8 {
+        assert!(
+            conv.error(f, k) < 1e-8,
+            "{}: {}",
+            conv.fidelities[f].label(),
+            conv.error(f, k)
+        );
+    }
+    // (more accurate than the finest fixed rung, 5e-5 s: wall times, which the
+    // recommendation weighs, are no test's business)
+    for f in 5..8 {
+        assert!(conv.error(f, k) < conv.error(4, k) / 10.0);
+    }
+    let fig = mc_study::report::work_precision(&conv, target);
+    assert!(fig
+        .series
+        .iter()
+        .all(|(_, p)| p.iter().filter(|x| x.adaptive).count() == 3));
 }
 
 /// An output that grows as 1/h (the peak contact force of a rigid impact) gets converge's

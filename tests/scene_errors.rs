@@ -581,3 +581,38 @@ fn a_refinement_window_needs_a_rigid_contact() {
         "{e}"
     );
 }
+
+#[test]
+fn step_control_names_its_field() {
+    let at = |block: &str| format!("duration: 1 s\nintegrator:\n  step_control: {block}\n");
+    let cases = [
+        ("{ tolerance: -1e-4 }", "integrator.step_control.tolerance"),
+        ("{ tolerance: 1e-4, h_max: 2 kg }", "a time"),
+        (
+            "{ h_max: 1 us, h_min: 1 ms }",
+            "integrator.step_control.h_min",
+        ),
+        ("{ speed: 0 }", "integrator.step_control.speed"),
+        ("sometimes", "must be `off` or a block"),
+    ];
+    for (block, field) in cases {
+        let e = refused(&GOOD_BALL.replacen("duration: 1 s\n", &at(block), 1), block);
+        assert!(e.starts_with("scene.yaml:3:"), "wrong line in: {e}");
+        assert!(e.contains(field), "`{field}` not named in: {e}");
+    }
+    // an unknown key inside the block
+    let e = refused(
+        &GOOD_BALL.replacen("duration: 1 s\n", &at("{ tolerence: 1e-4 }"), 1),
+        "typo",
+    );
+    assert!(e.starts_with("scene.yaml:3:"), "wrong line in: {e}");
+    // `off` and a block are both accepted
+    for block in ["off", "{ tolerance: 1e-5 }"] {
+        let s = Scene::from_yaml(
+            &GOOD_BALL.replacen("duration: 1 s\n", &at(block), 1),
+            "s.yaml",
+        );
+        let c = s.unwrap().params.step_control;
+        assert_eq!(c.is_some(), block != "off");
+    }
+}

@@ -13,8 +13,11 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 fn bouncing_ball(n: u64) -> Study {
-    Study::load(&study_path("bouncing-ball", "study.yaml"), Some(n))
-        .unwrap_or_else(|e| panic!("{e}"))
+    bouncing_ball_of("study.yaml", n)
+}
+
+fn bouncing_ball_of(file: &str, n: u64) -> Study {
+    Study::load(&study_path("bouncing-ball", file), Some(n)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn options(out: &Path, threads: usize, shard: Shard) -> RunOptions {
@@ -44,10 +47,20 @@ fn results(out: &Path) -> (Vec<Row>, Vec<(String, String)>) {
 
 #[test]
 fn results_are_identical_whatever_the_threads_and_shards() {
-    let study = bouncing_ball(40);
-    let one = scratch("det-1-thread");
-    let two = scratch("det-2-threads");
-    let sharded = scratch("det-4-shards");
+    identical_whatever_the_threads_and_shards("study.yaml", "det");
+}
+
+/// The same under step control, whose step sequence each sample's state alone sets.
+#[test]
+fn adaptive_results_are_identical_whatever_the_threads_and_shards() {
+    identical_whatever_the_threads_and_shards("study-adaptive.yaml", "det-adaptive");
+}
+
+fn identical_whatever_the_threads_and_shards(file: &str, name: &str) {
+    let study = bouncing_ball_of(file, 40);
+    let one = scratch(&format!("{name}-1-thread"));
+    let two = scratch(&format!("{name}-2-threads"));
+    let sharded = scratch(&format!("{name}-4-shards"));
     run(&study, &options(&one, 1, Shard::WHOLE)).unwrap();
     run(&study, &options(&two, 2, Shard::WHOLE)).unwrap();
     for index in [2, 0, 3, 1] {
@@ -192,11 +205,20 @@ fn failed_samples_become_rows_with_their_reason_and_the_batch_goes_on() {
 /// lost and none written twice.
 #[test]
 fn killed_runs_resume_without_losing_or_repeating_a_sample() {
+    killed_runs_resume("study.yaml", "sigkill", 320);
+}
+
+/// The same under step control (its samples take a thirtieth of the time: more of them).
+#[test]
+fn killed_adaptive_runs_resume_without_losing_or_repeating_a_sample() {
+    killed_runs_resume("study-adaptive.yaml", "sigkill-adaptive", 8000);
+}
+
+fn killed_runs_resume(file: &str, name: &str, n: u64) {
     let exe = env!("CARGO_BIN_EXE_mc-study");
-    let study = study_path("bouncing-ball", "study.yaml");
-    let out = scratch("sigkill");
-    let reference = scratch("sigkill-reference");
-    let n = 320;
+    let study = study_path("bouncing-ball", file);
+    let out = scratch(name);
+    let reference = scratch(&format!("{name}-reference"));
     let args = |o: &Path| -> Vec<String> {
         vec![
             "run".into(),

@@ -1,6 +1,7 @@
 //! `mc-study converge`: runs the fidelity ladder of a study in parallel and reports it.
 
 use super::thread_pool;
+use crate::integrator::StepControl;
 use crate::study::converge::{sigma_of, sweep, Fidelity, Ladder};
 use crate::study::sample_run::Subject;
 use crate::study::summary::Summary;
@@ -26,9 +27,14 @@ pub struct ConvergeArgs {
     /// no σ is known (then default 1e-3).
     #[arg(long)]
     pub target: Option<f64>,
-    /// Step sizes to try instead of the default ladder, e.g. `1e-4,5e-5,2e-5`.
+    /// Fixed step sizes to try instead of the default ladder, e.g. `1e-4,5e-5,2e-5`.
     #[arg(long = "h", value_delimiter = ',')]
     pub hs: Vec<f64>,
+    /// Step-control tolerances to try instead of the default ladder (adaptive steps, the
+    /// scene's `step_control` settings or the defaults otherwise), e.g. `1e-3,3e-4,1e-4`;
+    /// with --h, both kinds run.
+    #[arg(long = "tolerances", value_delimiter = ',')]
+    pub tolerances: Vec<f64>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -43,15 +49,27 @@ pub fn converge(args: &ConvergeArgs) -> Result<()> {
     };
     let base = Fidelity::of(&scene.params);
     let mut ladder = Ladder::around_scene(scene, args.samples);
-    if !args.hs.is_empty() {
-        if let Some(h) = args.hs.iter().find(|h| !(**h > 0.0 && h.is_finite())) {
-            bail!("--h: step sizes must be positive, got {h}");
+    if !args.hs.is_empty() || !args.tolerances.is_empty() {
+        for (flag, xs) in [("--h", &args.hs), ("--tolerances", &args.tolerances)] {
+            if let Some(x) = xs.iter().find(|x| !(**x > 0.0 && x.is_finite())) {
+                bail!("{flag}: values must be positive, got {x}");
+            }
         }
-        ladder.fidelities = args
-            .hs
-            .iter()
-            .map(|&h| Fidelity { h, ..base.clone() })
-            .collect();
+        let fixed = args.hs.iter().map(|&h| Fidelity {
+            h,
+            step_control: None,
+            ..base.clone()
+        });
+        let control = (scene.params.step_control.clone())
+            .unwrap_or_else(|| StepControl::for_step(1e-4, scene.params.h));
+        let adaptive = args.tolerances.iter().map(|&tolerance| Fidelity {
+            step_control: Some(StepControl {
+                tolerance,
+                ..control.clone()
+            }),
+            ..base.clone()
+        });
+        ladder.fidelities = fixed.chain(adaptive).collect();
         let finest = args.hs.iter().copied().fold(f64::INFINITY, f64::min);
         ladder.reference.h = ladder.reference.h.min(finest / 2.0);
     }

@@ -1,6 +1,7 @@
 //! Impacts located within their steps (`IntegrationParameters::locate_impacts`): a step in
 //! which a contact closes is redone as the part before the impact, the impact itself (a
-//! step of length 0: Moreau's impact law alone) and the rest of the step.
+//! step of length 0: Moreau's impact law alone) and the rest of the step; under step
+//! control, the step ends at the impact instead.
 
 use super::moreau_jean::VelocityStep;
 use super::projection::ProjectionOutcome;
@@ -135,6 +136,16 @@ impl Simulation {
         self.active = active;
         std::mem::swap(&mut self.state.v, &mut vs.v);
         ws.velocity.step.keep_spent(vs);
+        self.stats.impact_splits += 1;
+        if self.control.is_some() {
+            // under step control the step ends at the impact: the controller sizes the
+            // steps after it, which the rest of this one would take unjudged
+            sum.store(self);
+            self.h = s * h;
+            let mut report = first;
+            report.absorb(&impact);
+            return Ok(report);
+        }
         self.h = (1.0 - s) * h;
         let mut report = self.advance(t_end, depth, ws)?;
         sum.add(self);
@@ -143,7 +154,6 @@ impl Simulation {
         for part in [&first, &impact] {
             report.absorb(part);
         }
-        self.stats.impact_splits += 1;
         Ok(report)
     }
 

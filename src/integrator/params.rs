@@ -1,5 +1,6 @@
 //! Integration parameters with documented defaults (never magic numbers in the loop).
 
+use super::step_control::StepControl;
 use crate::mechanics::ContactPoint;
 use crate::solver::NsgsOptions;
 
@@ -47,7 +48,7 @@ impl Scheme {
 }
 
 /// Fidelity presets of a study (`fidelity: { preset: fast }`), relative to the scene's own
-/// integrator settings, which its author chose for that mechanism: a step that suits a
+/// integrator settings (with `step_control`, its tolerance instead of h), which its author chose for that mechanism: a step that suits a
 /// bouncing ball is 100× too coarse for a latch. Their measured error and cost on the
 /// bundled scenes are in the README (`mc-study converge` prints them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,15 +81,25 @@ impl Preset {
             Preset::Fast => {
                 p.h *= 4.0;
                 p.solver.tolerance *= 100.0;
+                if let Some(c) = &mut p.step_control {
+                    c.tolerance *= STEP_RATIO_CUBED;
+                }
             }
             Preset::Balanced => {}
             Preset::Accurate => {
                 p.h /= 4.0;
                 p.solver.tolerance = (p.solver.tolerance / 100.0).max(1e-12);
+                if let Some(c) = &mut p.step_control {
+                    c.tolerance /= STEP_RATIO_CUBED;
+                }
             }
         }
     }
 }
+
+/// A preset's change of a controlled run's tolerance: the local error goes with h³, so
+/// 4³ matches the fixed step's × 4.
+const STEP_RATIO_CUBED: f64 = 64.0;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntegrationParameters {
@@ -129,6 +140,9 @@ pub struct IntegrationParameters {
     /// velocities, an error of up to h/2 times the jump that falls with h only at first
     /// order and changes sign with where the impact falls in its step.
     pub locate_impacts: bool,
+    /// Error-controlled step size (`step_control.rs`): h is then the first step, and the
+    /// controller sizes the others. None (the default) keeps every step at h.
+    pub step_control: Option<StepControl>,
 }
 
 impl Default for IntegrationParameters {
@@ -146,6 +160,7 @@ impl Default for IntegrationParameters {
             projection_max_iterations: 20,
             max_active_set_passes: 50,
             locate_impacts: false,
+            step_control: None,
         }
     }
 }
@@ -205,6 +220,9 @@ impl IntegrationParameters {
         }
         if self.newton_max_iterations == 0 {
             return Err(("newton.max_iterations", "must be at least 1".into()));
+        }
+        if let Some(c) = &self.step_control {
+            c.validate()?;
         }
         Ok(())
     }

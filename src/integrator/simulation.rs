@@ -2,7 +2,7 @@
 //! velocity step, the position update and (for the projected schemes) the position
 //! projection, with per-step diagnostics accumulated over the run. The combined scheme's
 //! activation loop is in `activation.rs`, the splitting of a step at an impact in
-//! `impact.rs`.
+//! `impact.rs`, the step-size control in `step_control.rs`.
 
 use super::elimination::Elimination;
 use super::moreau_jean::{
@@ -13,8 +13,10 @@ use super::projection::{
     inverse_mass, mass_distance_of_length, project, within_reach, ChordStep, ContactRows,
     ContactRowsOf, JointViolation, ProjectionOutcome,
 };
+use super::rollback::Rollback;
 use super::schedule::Schedule;
 use super::sinking::Sinking;
+use super::step_control::{Controller, Taken, Verdict};
 use super::subdivision::Depth;
 use super::workspace::{ProjectionWorkspace, StepWorkspace, VelocityWorkspace};
 use crate::mechanics::joint::BilateralRow;
@@ -127,6 +129,9 @@ pub struct RunStats {
     /// Steps (or parts of steps) that end with a journal squeezed across its ring
     /// (`squeezed.rs`): two points of one ring with opposing normals both pushing.
     pub squeezed_steps: u64,
+    /// Steps the step-size control took again, smaller (`step_control.rs`); not counted
+    /// in `steps`.
+    pub rejected_steps: u64,
 }
 
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -213,6 +218,8 @@ pub struct Simulation {
     /// The storage the steps reuse (`workspace.rs`), boxed so that a step takes it and
     /// puts it back by moving a pointer.
     pub(super) workspace: Option<Box<StepWorkspace>>,
+    /// The step-size controller, when `params.step_control` is set.
+    pub(super) control: Option<Controller>,
 }
 
 impl Simulation {
@@ -250,6 +257,14 @@ impl Simulation {
             .iter()
             .map(|&c| schedule.frictionless_while_settling(&model, c))
             .collect();
+        let control = params.step_control.as_ref().map(|_| {
+            let radii = model
+                .bodies
+                .iter()
+                .map(|b| b.radius_of_gyration())
+                .collect();
+            Controller::new(params.h, radii)
+        });
         let mut sim = Simulation {
             ring_member,
             guard_ring,
@@ -276,6 +291,7 @@ impl Simulation {
             stats: RunStats::default(),
             located_impact: None,
             workspace: None,
+            control,
         };
         sim.update_geometry(None, None);
         sim.update_compliant(false);
@@ -400,9 +416,19 @@ impl Simulation {
     /// The step that starts now, and the time it ends at when that is a phase's end: the
     /// settle's step while settling, the refinement window's within it, each phase's last
     /// step shortened or stretched (by at most 1e-9) to end at the phase's end; else h.
+    ///
+    /// Under step control, the controller's step, cut to end at the settle's end; the
+    /// refinement window, a fixed refinement of the step, does not apply.
     pub(super) fn next_step(&self) -> (f64, Option<f64>) {
         let t = self.state.t;
         let settle = self.schedule.settling(t);
+        if let Some(c) = &self.control {
+            let h = c.proposal;
+            return match settle {
+                Some(s) if s.until - t <= h * (1.0 + 1e-9) => (s.until - t, Some(s.until)),
+                _ => (h, None),
+            };
+        }
         let window = self
             .refine_until
             .zip(self.schedule.refine.as_ref())
@@ -706,6 +732,17 @@ impl Simulation {
     /// `step`, its length cut where it would pass `t_end` (a run's end, which need not be
     /// a multiple of h).
     pub fn step_until(&mut self, t_end: f64) -> Result<StepReport, SimError> {
+        if self.control.is_some() {
+            return self.controlled_step(t_end);
+        }
+        let step_end = self.sized_step(t_end);
+        let report = self.advance_whole(step_end)?;
+        Ok(self.conclude(report))
+    }
+
+    /// Sets the next step's size (`self.h`), cut to end at `t_end`; returns the time it
+    /// ends at.
+    fn sized_step(&mut self, t_end: f64) -> f64 {
         let (mut h, mut ends_at) = self.next_step();
         if t_end - self.state.t < h * (1.0 - 1e-9) {
             (h, ends_at) = (t_end - self.state.t, Some(t_end));
@@ -715,15 +752,82 @@ impl Simulation {
             self.t0 = self.state.t;
             self.n0 = self.stats.steps;
         }
-        let t_end = ends_at.unwrap_or(self.t0 + (self.stats.steps + 1 - self.n0) as f64 * h);
+        ends_at.unwrap_or(self.t0 + (self.stats.steps + 1 - self.n0) as f64 * h)
+    }
+
+    /// The step of size `self.h` to `step_end`, in parts where it must be.
+    fn advance_whole(&mut self, step_end: f64) -> Result<StepReport, SimError> {
         let mut ws = self.workspace.take().unwrap_or_default();
         self.located_impact = None;
-        let report = self.advance(t_end, Depth::default(), &mut ws);
+        let report = self.advance(step_end, Depth::default(), &mut ws);
         self.workspace = Some(ws);
-        let report = report?;
+        report
+    }
+
+    /// `step_until` under step control: the controller's step, taken again smaller until
+    /// the controller accepts it (`step_control.rs`).
+    fn controlled_step(&mut self, t_end: f64) -> Result<StepReport, SimError> {
+        let c = self.params.step_control.clone().expect("controlled");
+        loop {
+            let proposal = self.control.as_ref().expect("controlled").proposal;
+            let step_end = self.sized_step(t_end);
+            let h_tried = self.h;
+            let before = Rollback::of(self);
+            let report = match self.advance_whole(step_end) {
+                Ok(report) => report,
+                // a step that fails even in halves may pass smaller
+                Err(SimError::Geometry { .. } | SimError::NonFinite { .. })
+                    if h_tried > c.h_min * (1.0 + 1e-9) =>
+                {
+                    before.restore(self);
+                    self.stats.rejected_steps += 1;
+                    let control = self.control.as_mut().expect("controlled");
+                    control.proposal = (0.2 * h_tried).max(c.h_min);
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
+            // the step taken: shorter than tried where it ended at an impact
+            let h = self.state.t - before.time();
+            let closed = (0..self.impulses.len())
+                .any(|i| self.impulses[i].x > 0.0 && before.impulses()[i].x <= 0.0);
+            // how deep the step carried a body into a contact that was open at its start
+            let overshoot = (0..self.points.len())
+                .filter(|&i| !self.is_guard(i) && before.points()[i].gap() > 0.0)
+                .map(|i| -self.points[i].gap())
+                .fold(0.0, f64::max);
+            let taken = Taken {
+                h,
+                v0: before.velocities(),
+                v1: &self.state.v,
+                closed,
+                constrained: self.impulses.iter().any(|p| p.x > 0.0)
+                    || self.joint_impulses.iter().any(|&p| p != 0.0),
+                overshoot,
+                located: self.stats.impact_splits > before.stats().impact_splits,
+                clipped: h < proposal * (1.0 - 1e-9),
+            };
+            let control = self.control.as_mut().expect("controlled");
+            let verdict = control.judge(&c, &taken);
+            match verdict {
+                Verdict::Accept => return Ok(self.conclude(report)),
+                Verdict::Retry(h_new) => {
+                    before.restore(self);
+                    self.stats.rejected_steps += 1;
+                    self.control.as_mut().expect("controlled").proposal = h_new;
+                }
+            }
+        }
+    }
+
+    /// Counts a step just taken in the run's diagnostics, and opens the refinement window
+    /// where its contact closed (but under step control).
+    fn conclude(&mut self, report: StepReport) -> StepReport {
         self.stats.steps += 1;
         // the refinement window opens at the end of the step in which its contact closed
-        if let (None, Some(r)) = (self.refine_until, &self.schedule.refine) {
+        // (a controlled run refines its steps itself)
+        let refined = self.control.is_none();
+        if let (None, Some(r), true) = (self.refine_until, &self.schedule.refine, refined) {
             if r.trigger.iter().any(|&i| self.impulses[i].x > 0.0) {
                 self.refine_until = Some(self.state.t + r.duration);
             }
@@ -740,7 +844,7 @@ impl Simulation {
         s.max_projection_iterations = s
             .max_projection_iterations
             .max(report.projection.iterations);
-        Ok(report)
+        report
     }
 
     /// The step of size `self.h` from the current state, not yet taken.

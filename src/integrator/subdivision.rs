@@ -161,6 +161,13 @@ impl Simulation {
         self.h = 0.5 * h;
         let first = self.advance(t_mid, depth, ws)?;
         sum.add(self);
+        if self.control.is_some() && self.state.t < t_mid {
+            // the first half ended at an impact (`split_at_impact`): so does the step
+            sum.store(self);
+            self.h = self.state.t - (t_mid - 0.5 * h);
+            self.stats.halved_steps += u64::from(top);
+            return Ok(first);
+        }
         self.h = t_end - self.state.t;
         let mut report = self.advance(t_end, depth, ws)?;
         sum.add(self);

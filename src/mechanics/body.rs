@@ -223,6 +223,17 @@ impl RigidBody {
         mask
     }
 
+    /// √(tr I / 2m): the root-mean-square distance of the body's mass from its reference
+    /// point (for a solid sphere of radius r, √(3/5) r), the length by which a rotation of
+    /// the body moves a typical point of it.
+    pub fn radius_of_gyration(&self) -> f64 {
+        if self.mass > 0.0 {
+            (self.inertia.trace() / (2.0 * self.mass)).sqrt()
+        } else {
+            0.0
+        }
+    }
+
     /// Kinetic energy ½ m |v|² + ½ Ωᵀ I Ω for the given twist.
     pub fn kinetic_energy(&self, v: &Vector3<f64>, omega: &Vector3<f64>) -> f64 {
         let trans = if self.motion == Motion::Free {

@@ -657,6 +657,23 @@ impl<'a> ProbeRecorder<'a> {
         time_of(&self.progress, r)
     }
 
+    /// The earliest instant after `t` that a probe reads a value at or bounds a window by
+    /// (`at`, `from`, `to`, given as times or as events already timed): a controlled run
+    /// ends a step there, where interpolating across a long step would cost accuracy.
+    pub fn next_instant(&self, t: f64) -> Option<f64> {
+        self.probes
+            .iter()
+            .filter_map(|p| match &p.kind {
+                ProbeKind::Value { at, from, to, .. } => Some([*at, *from, *to]),
+                ProbeKind::Event { .. } => None,
+            })
+            .flatten()
+            .flatten()
+            .filter_map(|r| self.time(r))
+            .filter(|&x| x > t * (1.0 + 1e-12) + 1e-15)
+            .min_by(f64::total_cmp)
+    }
+
     /// Adds the step just taken, (last_t, t], to every curve whose window it meets.
     fn observe_curves(&mut self, sim: &Simulation) {
         let t = sim.state.t;

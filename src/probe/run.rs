@@ -133,7 +133,14 @@ fn advance(
 ) -> Result<Reached, SimError> {
     while !sim.reached(stop.t_end) {
         let opened = sim.refine_window_end().is_some();
-        let report = sim.step_until(stop.t_end)?;
+        // a controlled run ends a step at each probe's instant; a fixed one keeps its grid
+        let until = match sim.params.step_control {
+            Some(_) => recorder
+                .next_instant(sim.state.t)
+                .map_or(stop.t_end, |x| x.min(stop.t_end)),
+            None => stop.t_end,
+        };
+        let report = sim.step_until(until)?;
         recorder.observe(sim);
         observe(sim, &report);
         if stop.when_known && recorder.done() {
@@ -161,6 +168,7 @@ fn merged(fine: &RunStats, coarse: &RunStats, fork: &RunStats) -> RunStats {
         plastic_steps: fine.plastic_steps + after(coarse.plastic_steps, fork.plastic_steps),
         sank_through: fine.sank_through + after(coarse.sank_through, fork.sank_through),
         squeezed_steps: fine.squeezed_steps + after(coarse.squeezed_steps, fork.squeezed_steps),
+        rejected_steps: fine.rejected_steps + after(coarse.rejected_steps, fork.rejected_steps),
         max_penetration: fine.max_penetration.max(coarse.max_penetration),
         max_joint_violation: fine.max_joint_violation.max(coarse.max_joint_violation),
         max_joint_angle_violation: fine

@@ -587,13 +587,24 @@ fn decade_tick(x: f64, mantissas: &[f64]) -> String {
     }
 }
 
+/// A fidelity's point on the work–precision diagram.
+#[derive(Clone, Copy, Debug)]
+pub struct WorkPoint {
+    /// Wall time per sample (ms).
+    pub cost: f64,
+    pub error: f64,
+    /// Its step is error-controlled (`step_control`).
+    pub adaptive: bool,
+}
+
 /// Work–precision diagram of `mc-study converge`: each output's error against the wall
-/// time per sample, one point per fidelity, both axes logarithmic, with the target.
+/// time per sample, one point per fidelity, both axes logarithmic, with the target: a
+/// circle for a fixed step, a triangle for an adaptive one.
 pub struct WorkPrecisionFigure {
     pub title: String,
     pub y_desc: String,
-    /// (output name, [(ms per sample, error)]) per output.
-    pub series: Vec<(String, Vec<(f64, f64)>)>,
+    /// (output name, one point per fidelity) per output.
+    pub series: Vec<(String, Vec<WorkPoint>)>,
     pub target: f64,
 }
 
@@ -604,7 +615,7 @@ impl Figure for WorkPrecisionFigure {
         let finite: Vec<(f64, f64)> = self
             .series
             .iter()
-            .flat_map(|(_, p)| p.iter().copied())
+            .flat_map(|(_, p)| p.iter().map(|w| (w.cost, w.error)))
             .filter(|(c, e)| c.is_finite() && *c > 0.0 && e.is_finite() && *e > 0.0)
             .collect();
         let (mut c0, mut c1, mut e0, mut e1) = (f64::MAX, f64::MIN, self.target, self.target);
@@ -642,15 +653,25 @@ impl Figure for WorkPrecisionFigure {
             .legend(|(x, y)| PathElement::new([(x, y), (x + 14, y)], RED.stroke_width(2)));
         for (i, (name, points)) in self.series.iter().enumerate() {
             let colour = Palette99::pick(i).to_rgba();
-            let pts: Vec<(f64, f64)> = points
+            let pts: Vec<((f64, f64), bool)> = points
                 .iter()
-                .filter(|(c, e)| c.is_finite() && *c > 0.0 && e.is_finite())
-                .map(|&(c, e)| (c, e.max(floor)))
+                .filter(|w| w.cost.is_finite() && w.cost > 0.0 && w.error.is_finite())
+                .map(|w| ((w.cost, w.error.max(floor)), w.adaptive))
                 .collect();
+            let fixed = pts.iter().filter(|p| !p.1);
             chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))?
+                .draw_series(fixed.map(|&(p, _)| Circle::new(p, 4, colour.filled())))?
                 .label(name.as_str())
                 .legend(move |(x, y)| Circle::new((x + 7, y), 4, colour.filled()));
+            let adaptive = pts.iter().filter(|p| p.1);
+            chart
+                .draw_series(adaptive.map(|&(p, _)| TriangleMarker::new(p, 6, colour.filled())))?;
+        }
+        if self.series.iter().flat_map(|(_, p)| p).any(|p| p.adaptive) {
+            chart
+                .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+                .label("circles: fixed step; triangles: adaptive (step_control)")
+                .legend(|(x, y)| TriangleMarker::new((x + 7, y), 6, BLACK.filled()));
         }
         chart
             .configure_series_labels()

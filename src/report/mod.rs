@@ -42,7 +42,13 @@ pub fn work_precision(conv: &Convergence, target: f64) -> figures::WorkPrecision
             .enumerate()
             .filter(|(k, _)| !conv.constant(*k))
             .map(|(k, (name, _))| {
-                let pts = (0..n).map(|f| (conv.cost(f), conv.error(f, k))).collect();
+                let pts = (0..n)
+                    .map(|f| figures::WorkPoint {
+                        cost: conv.cost(f),
+                        error: conv.error(f, k),
+                        adaptive: conv.fidelities[f].step_control.is_some(),
+                    })
+                    .collect();
                 (name.clone(), pts)
             })
             .collect(),

@@ -3,9 +3,9 @@
 
 use super::error::{line, SceneError};
 use super::fields::{count, non_negative, positive, scalar, R};
-use super::schema::IntegratorSpec;
+use super::schema::{IntegratorSpec, StepControlSpec};
 use crate::input::units::Dim;
-use crate::integrator::{IntegrationParameters, Preset, Scheme};
+use crate::integrator::{IntegrationParameters, Preset, Scheme, StepControl};
 
 /// Applies an `integrator` block (or a study's `fidelity` block, named by `prefix`) on top
 /// of `p`.
@@ -59,6 +59,9 @@ pub fn apply_integrator(
     if let Some(l) = spec.locate_impacts {
         p.locate_impacts = l;
     }
+    if let Some(c) = &spec.step_control {
+        p.step_control = step_control(c, p.step_control.take(), p.h, prefix)?;
+    }
     if let Some(s) = &spec.projection {
         if let Some(t) = &s.tolerance {
             p.projection_tolerance =
@@ -85,4 +88,43 @@ pub fn apply_integrator(
     };
     p.validate()
         .map_err(|(f, m)| SceneError::at(field_line(f), format!("{prefix}.{f}"), m))
+}
+
+/// The step control's tolerance where a block leaves it out.
+const DEFAULT_TOLERANCE: f64 = 1e-4;
+
+/// A `step_control` block on top of the control already set (`present`; else the
+/// defaults for the step `h`), or `off`.
+fn step_control(
+    spec: &StepControlSpec,
+    present: Option<StepControl>,
+    h: f64,
+    prefix: &str,
+) -> R<Option<StepControl>> {
+    let field = |name: &str| format!("{prefix}.step_control.{name}");
+    let block = match spec {
+        StepControlSpec::Off => return Ok(None),
+        StepControlSpec::On(block) => block,
+    };
+    let mut c = present.unwrap_or_else(|| StepControl::for_step(DEFAULT_TOLERANCE, h));
+    let set = |q: &Option<super::schema::Q>, dim: Dim, name: &str, x: &mut f64| -> R<()> {
+        if let Some(q) = q {
+            *x = positive(q, dim, &field(name))?;
+        }
+        Ok(())
+    };
+    set(&block.tolerance, Dim::NONE, "tolerance", &mut c.tolerance)?;
+    set(&block.h_max, Dim::TIME, "h_max", &mut c.h_max)?;
+    set(&block.h_min, Dim::TIME, "h_min", &mut c.h_min)?;
+    set(&block.length, Dim::LENGTH, "length", &mut c.length)?;
+    set(&block.speed, Dim::VELOCITY, "speed", &mut c.speed)?;
+    if c.h_min > c.h_max {
+        let l = block.h_min.as_ref().or(block.h_max.as_ref()).and_then(line);
+        return Err(SceneError::at(
+            l,
+            field("h_min"),
+            format!("must not exceed h_max ({} s), got {} s", c.h_max, c.h_min),
+        ));
+    }
+    Ok(Some(c))
 }

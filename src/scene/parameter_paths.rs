@@ -443,6 +443,19 @@ impl Node for IntegratorSpec {
                 }),
             );
         }
+        // only a block that is there: an empty one would switch the control on
+        if let (Some(StepControlSpec::On(b)), Some(c)) = (&mut self.step_control, &p.step_control) {
+            v.node(
+                "step_control",
+                &mut With(|v: &mut dyn Visitor| {
+                    v.scalar("tolerance", &mut b.tolerance, Dim::NONE, d(c.tolerance));
+                    v.scalar("h_max", &mut b.h_max, Dim::TIME, d(c.h_max));
+                    v.scalar("h_min", &mut b.h_min, Dim::TIME, d(c.h_min));
+                    v.scalar("length", &mut b.length, Dim::LENGTH, d(c.length));
+                    v.scalar("speed", &mut b.speed, Dim::VELOCITY, d(c.speed));
+                }),
+            );
+        }
     }
 }
 

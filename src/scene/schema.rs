@@ -135,6 +135,63 @@ pub struct IntegratorSpec {
     pub projection: Option<ToleranceSpec>,
     /// Split a step at the first contact that closes in it (default false).
     pub locate_impacts: Option<bool>,
+    /// Error-controlled step size, or `off` (`StepControl`).
+    pub step_control: Option<StepControlSpec>,
+}
+
+/// `step_control: { tolerance: 1e-4, h_max: 1 ms, … }`, or `step_control: off` (a study's
+/// fidelity block that runs a controlled scene at a fixed step).
+#[derive(Clone, Debug)]
+pub enum StepControlSpec {
+    On(Box<StepControlBlock>),
+    Off,
+}
+
+/// A word or a block, each read by the YAML reader itself, which keeps the lines of the
+/// block's values (an untagged enum would buffer them and lose their lines).
+impl<'de> Deserialize<'de> for StepControlSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Either;
+        impl<'de> serde::de::Visitor<'de> for Either {
+            type Value = StepControlSpec;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("`off` or a block such as { tolerance: 1e-4, h_max: 1 ms }")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+                match v {
+                    "off" => Ok(StepControlSpec::Off),
+                    _ => Err(E::custom(format!(
+                        "`step_control` must be `off` or a block such as {{ tolerance: 1e-4, h_max: 1 ms }}, got `{v}`"
+                    ))),
+                }
+            }
+            fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<Self::Value, E> {
+                // YAML 1.1 reads a bare `off` as false
+                match v {
+                    false => self.visit_str("off"),
+                    true => self.visit_str("on"),
+                }
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<Self::Value, A::Error> {
+                let d = serde::de::value::MapAccessDeserializer::new(map);
+                StepControlBlock::deserialize(d).map(|b| StepControlSpec::On(Box::new(b)))
+            }
+        }
+        d.deserialize_any(Either)
+    }
+}
+
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepControlBlock {
+    pub tolerance: Option<Q>,
+    pub h_max: Option<Q>,
+    pub h_min: Option<Q>,
+    pub length: Option<Q>,
+    pub speed: Option<Q>,
 }
 
 #[derive(Clone, Debug, Default, Deserialize)]

@@ -119,6 +119,8 @@ pub struct SimulateReport {
     pub scheme: Scheme,
     pub h: f64,
     pub settle_h: Option<f64>,
+    /// The step-size control, if the run had one (h is then its first step).
+    pub step_control: Option<crate::integrator::StepControl>,
     pub theta: f64,
     pub t_end: f64,
     pub stats: RunStats,
@@ -274,6 +276,7 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
             .as_ref()
             .and_then(|s| s.step_ratio)
             .map(|r| r * sim.params.h),
+        step_control: sim.params.step_control.clone(),
         theta: sim.params.theta,
         t_end: sim.state.t,
         stats: run.stats,
@@ -333,6 +336,13 @@ impl fmt::Display for SimulateReport {
             "steps            {} to t = {:.6} s",
             st.steps, self.t_end
         )?;
+        if let Some(c) = &self.step_control {
+            writeln!(
+                f,
+                "step control     τ = {:e} (length {:e} m, speed {:e} m/s), h from {:e} to {:e} s, the first {:e} s: {} steps taken again",
+                c.tolerance, c.length, c.speed, c.h_min, c.h_max, self.h, st.rejected_steps
+            )?;
+        }
         if let Some((t, coarse, fine)) = self.extrapolated {
             writeln!(
                 f,

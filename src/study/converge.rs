@@ -8,9 +8,9 @@
 use super::sample_run::Subject;
 use super::summary::Summary;
 use super::Study;
-use crate::integrator::{IntegrationParameters, Preset, Scheme};
+use crate::integrator::{IntegrationParameters, Preset, Scheme, StepControl};
 use crate::scene::parameter_paths::written;
-use crate::scene::schema::{IntegratorSpec, ToleranceSpec};
+use crate::scene::schema::{IntegratorSpec, StepControlBlock, StepControlSpec, ToleranceSpec};
 use crate::scene::Tuning;
 use rayon::prelude::*;
 use serde_saphyr::{Location, Spanned};
@@ -38,6 +38,9 @@ pub struct Fidelity {
     pub extrapolate: Option<bool>,
     /// The preset this rung is, if any (`fast`, `balanced`, `accurate`).
     pub preset: Option<Preset>,
+    /// The step-size control of an adaptive rung (`h` is then its first step); `None` for
+    /// a fixed step.
+    pub step_control: Option<StepControl>,
 }
 
 impl Fidelity {
@@ -51,6 +54,7 @@ impl Fidelity {
             locate_impacts: p.locate_impacts,
             extrapolate: None,
             preset: None,
+            step_control: p.step_control.clone(),
         }
     }
 
@@ -84,6 +88,16 @@ impl Fidelity {
             solver: tolerance(self.solver_tolerance),
             projection: tolerance(self.projection_tolerance),
             locate_impacts: Some(self.locate_impacts),
+            step_control: Some(match &self.step_control {
+                None => StepControlSpec::Off,
+                Some(c) => StepControlSpec::On(Box::new(StepControlBlock {
+                    tolerance: Some(written(c.tolerance)),
+                    h_max: Some(written(c.h_max)),
+                    h_min: Some(written(c.h_min)),
+                    length: Some(written(c.length)),
+                    speed: Some(written(c.speed)),
+                })),
+            }),
             ..IntegratorSpec::default()
         };
         Tuning {
@@ -106,9 +120,12 @@ impl Fidelity {
             Some(false) => " window not extrapolated",
             None => "",
         };
+        let step = match &self.step_control {
+            Some(c) => format!("τ={} adaptive", exp_form(c.tolerance)),
+            None => format!("h={}", exp_form(self.h)),
+        };
         format!(
-            "{preset}h={} {} θ={} tol={} proj={}{located}{window}",
-            exp_form(self.h),
+            "{preset}{step} {} θ={} tol={} proj={}{located}{window}",
             self.scheme.name(),
             self.theta,
             exp_form(self.solver_tolerance),
@@ -125,13 +142,24 @@ impl Fidelity {
         let block = match self.preset {
             Some(p) => format!("fidelity: {{ preset: {} }}\n", p.name()),
             None => format!(
-                "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n  locate_impacts: {}\n",
+                "fidelity:\n  h: {}\n  scheme: {}\n  theta: {}\n  solver: {{ tolerance: {} }}\n  projection: {{ tolerance: {} }}\n  locate_impacts: {}\n  step_control: {}\n",
                 exp_form(self.h),
                 self.scheme.name(),
                 self.theta,
                 exp_form(self.solver_tolerance),
                 exp_form(self.projection_tolerance),
-                self.locate_impacts
+                self.locate_impacts,
+                match &self.step_control {
+                    None => "off".to_string(),
+                    Some(c) => format!(
+                        "{{ tolerance: {}, h_max: {} s, h_min: {} s, length: {} m, speed: {} m/s }}",
+                        exp_form(c.tolerance),
+                        exp_form(c.h_max),
+                        exp_form(c.h_min),
+                        exp_form(c.length),
+                        exp_form(c.speed)
+                    ),
+                }
             ),
         };
         block + &window
@@ -151,10 +179,15 @@ impl Ladder {
     /// The default ladder around the scene's settings `p` (h₀, scheme, θ₀, tolerance τ₀,
     /// projection tolerance π₀): h₀ × {10, 5, 2, 1, ½}; τ₀ × 100 and τ₀ / 100; π₀ × 100;
     /// θ = 1 if θ₀ ≠ 1; impacts located or not, the other way from the scene (combined
-    /// projection only); the other schemes; the `fast` and `accurate` presets. The reference
-    /// is h₀ / 10 at min(τ₀ / 100, 1e-8).
+    /// projection only); the other schemes; the `fast` and `accurate` presets; adaptive
+    /// steps (`step_control`) at the tolerances of [`Ladder::adaptive`]. The reference is
+    /// the fixed step h₀ / 10 at min(τ₀ / 100, 1e-8). Every rung but the adaptive ones and
+    /// the presets runs at a fixed step, also where the scene controls its step.
     pub fn around(p: &IntegrationParameters, samples: u64) -> Ladder {
-        let base = Fidelity::of(p);
+        let base = Fidelity {
+            step_control: None,
+            ..Fidelity::of(p)
+        };
         let mut fidelities: Vec<Fidelity> = [10.0, 5.0, 2.0, 1.0, 0.5]
             .iter()
             .map(|k| Fidelity {
@@ -200,6 +233,7 @@ impl Ladder {
         for preset in [Preset::Fast, Preset::Accurate] {
             fidelities.push(Fidelity::preset(preset, p));
         }
+        fidelities.extend(Ladder::adaptive(p));
         Ladder {
             fidelities,
             reference: Fidelity {
@@ -211,6 +245,26 @@ impl Ladder {
         }
     }
 
+    /// The adaptive rungs around the scene's settings `p`: with a step control of
+    /// tolerance τ₀, τ₀ × {10, 1, 1/10}; without, τ ∈ {1e-3, 3e-4, 1e-4} with the control's
+    /// defaults otherwise.
+    pub fn adaptive(p: &IntegrationParameters) -> Vec<Fidelity> {
+        let (control, factors) = match &p.step_control {
+            Some(c) => (c.clone(), [10.0, 1.0, 0.1]),
+            None => (StepControl::for_step(1e-3, p.h), [1.0, 0.3, 0.1]),
+        };
+        factors
+            .iter()
+            .map(|k| Fidelity {
+                step_control: Some(StepControl {
+                    tolerance: control.tolerance * k,
+                    ..control.clone()
+                }),
+                ..Fidelity::of(p)
+            })
+            .collect()
+    }
+
     /// The default ladder around a mechanism scene's settings: [`Ladder::around`] and, when
     /// the scene has a refinement window, its extrapolation the other way from the scene.
     pub fn around_scene(scene: &crate::scene::Scene, samples: u64) -> Ladder {
@@ -218,6 +272,7 @@ impl Ladder {
         if let Some(r) = &scene.schedule.refine {
             ladder.fidelities.push(Fidelity {
                 extrapolate: Some(!r.extrapolate),
+                step_control: None,
                 ..Fidelity::of(&scene.params)
             });
         }
@@ -477,6 +532,7 @@ impl Convergence {
                 && a.locate_impacts == b.locate_impacts
                 && a.extrapolate.is_none()
                 && a.preset.is_none()
+                && a.step_control.is_none()
         };
         let n = self.fidelities.len() - 1;
         let mut ladder: Vec<usize> = (0..n)
@@ -575,7 +631,7 @@ impl Convergence {
     /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "h,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,extrapolate,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+            "h,step_tolerance,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,extrapolate,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
         );
         let reference = self.reference();
         for (f, fid) in self.fidelities.iter().enumerate() {
@@ -584,8 +640,11 @@ impl Convergence {
                     let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
                     let _ = writeln!(
                         s,
-                        "{:e},{},{},{:e},{:e},{},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        "{:e},{},{},{},{:e},{:e},{},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
                         fid.h,
+                        fid.step_control
+                            .as_ref()
+                            .map_or(String::new(), |c| format!("{:e}", c.tolerance)),
                         fid.scheme.name(),
                         fid.theta,
                         fid.solver_tolerance,
