@@ -8,21 +8,20 @@
 //! - velocities: v''' = a'', by the second divided difference of the last three.
 //!
 //! Contacts and joints act through impulses that meet their conditions at the step's end:
-//! a step in which one carries an impulse is of first order in the velocities, with a
-//! local error of h²/2 · a', and the controller holds that to the tolerance instead.
+//! a step in which one carries an impulse is of first order in the velocities (p = 1), with
+//! a local error of h²/2 · a', and the controller holds that to the tolerance instead.
 //!
 //! A step whose estimate exceeds the tolerance is taken again, smaller; an accepted one
-//! sets the next to h · min(2, max(0.2, 0.9 (τ/e)^(1/3))). A step in which a contact closes
-//! carries an impulse, not a force, and no smooth estimate: its error is the impact's.
-//! Located (`locate_impacts`), the impact is taken at its instant; otherwise the step
-//! moves the bodies with the mean of the velocities before and after the jump Δv, a
+//! sets the next to h · min(2, max(0.2, 0.9 (τ/e)^(1/(p+1)))). A step in which a contact
+//! closes carries an impulse, not a force, and no smooth estimate: its error is the
+//! impact's. Located (`locate_impacts`), the impact is taken at its instant; otherwise the
+//! step moves the bodies with the mean of the velocities before and after the jump Δv, a
 //! misplacement of up to h/2 · Δv, and the step is taken again until that is within the
 //! tolerance. The estimate then starts afresh after the impact, from a step no longer than
 //! the impact's nor than the scene's `h` (the run's first step, which no estimate judges
-//! either). A step that
-//! ends inside a contact open at its start (a scheme without projection activates a
-//! contact only within its forecast's reach) is taken again until that depth is within the
-//! tolerance too.
+//! either). A step that ends inside a contact open at its start (a scheme without
+//! projection activates a contact only within its forecast's reach) is taken again until
+//! that depth is within the tolerance too.
 
 use nalgebra::DVector;
 
