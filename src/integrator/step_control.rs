@@ -291,6 +291,7 @@ mod tests {
     fn a_large_error_retries_smaller_and_a_small_one_grows_at_most_twofold() {
         let c = StepControl {
             tolerance: 1e-6,
+            h_max: 1.0,
             length: 1.0,
             speed: 1.0,
             ..StepControl::for_step(1e-4, 1e-4)
