@@ -16,7 +16,7 @@ use super::projection::{
 use super::rollback::Rollback;
 use super::schedule::Schedule;
 use super::sinking::Sinking;
-use super::step_control::{Controller, Taken, Verdict};
+use super::step_control::{Controller, StepControl, Taken, Verdict, SHRINK_MAX};
 use super::subdivision::Depth;
 use super::workspace::{ProjectionWorkspace, StepWorkspace, VelocityWorkspace};
 use crate::mechanics::joint::BilateralRow;
@@ -773,51 +773,49 @@ impl Simulation {
             let step_end = self.sized_step(t_end);
             let h_tried = self.h;
             let before = Rollback::of(self);
-            let report = match self.advance_whole(step_end) {
-                Ok(report) => report,
+            let h_new = match self.advance_whole(step_end) {
+                Ok(report) => match self.judge_step(&c, &before, proposal) {
+                    Verdict::Accept => return Ok(self.conclude(report)),
+                    Verdict::Retry(h_new) => h_new,
+                },
                 // a step that fails even in halves may pass smaller
                 Err(SimError::Geometry { .. } | SimError::NonFinite { .. })
                     if h_tried > c.h_min * (1.0 + 1e-9) =>
                 {
-                    before.restore(self);
-                    self.stats.rejected_steps += 1;
-                    let control = self.control.as_mut().expect("controlled");
-                    control.proposal = (0.2 * h_tried).max(c.h_min);
-                    continue;
+                    (SHRINK_MAX * h_tried).max(c.h_min)
                 }
                 Err(e) => return Err(e),
             };
-            // the step taken: shorter than tried where it ended at an impact
-            let h = self.state.t - before.time();
-            let closed = (0..self.impulses.len())
-                .any(|i| self.impulses[i].x > 0.0 && before.impulses()[i].x <= 0.0);
-            // how deep the step carried a body into a contact that was open at its start
-            let overshoot = (0..self.points.len())
-                .filter(|&i| !self.is_guard(i) && before.points()[i].gap() > 0.0)
-                .map(|i| -self.points[i].gap())
-                .fold(0.0, f64::max);
-            let taken = Taken {
-                h,
-                v0: before.velocities(),
-                v1: &self.state.v,
-                closed,
-                constrained: self.impulses.iter().any(|p| p.x > 0.0)
-                    || self.joint_impulses.iter().any(|&p| p != 0.0),
-                overshoot,
-                located: self.stats.impact_splits > before.stats().impact_splits,
-                clipped: h < proposal * (1.0 - 1e-9),
-            };
-            let control = self.control.as_mut().expect("controlled");
-            let verdict = control.judge(&c, &taken);
-            match verdict {
-                Verdict::Accept => return Ok(self.conclude(report)),
-                Verdict::Retry(h_new) => {
-                    before.restore(self);
-                    self.stats.rejected_steps += 1;
-                    self.control.as_mut().expect("controlled").proposal = h_new;
-                }
-            }
+            before.restore(self);
+            self.stats.rejected_steps += 1;
+            self.control.as_mut().expect("controlled").proposal = h_new;
         }
+    }
+
+    /// The controller's verdict on the step just taken from the state `before`, whose
+    /// proposed size was `proposal`.
+    fn judge_step(&mut self, c: &StepControl, before: &Rollback, proposal: f64) -> Verdict {
+        // the step taken: shorter than tried where it ended at an impact
+        let h = self.state.t - before.time();
+        let closed = (0..self.impulses.len())
+            .any(|i| self.impulses[i].x > 0.0 && before.impulses()[i].x <= 0.0);
+        // how deep the step carried a body into a contact that was open at its start
+        let overshoot = (0..self.points.len())
+            .filter(|&i| !self.is_guard(i) && before.points()[i].gap() > 0.0)
+            .map(|i| -self.points[i].gap())
+            .fold(0.0, f64::max);
+        let taken = Taken {
+            h,
+            v0: before.velocities(),
+            v1: &self.state.v,
+            closed,
+            constrained: self.impulses.iter().any(|p| p.x > 0.0)
+                || self.joint_impulses.iter().any(|&p| p != 0.0),
+            overshoot,
+            located: self.stats.impact_splits > before.stats().impact_splits,
+            clipped: h < proposal * (1.0 - 1e-9),
+        };
+        self.control.as_mut().expect("controlled").judge(c, &taken)
     }
 
     /// Counts a step just taken in the run's diagnostics, and opens the refinement window

@@ -88,7 +88,7 @@ impl StepControl {
 /// Largest growth and shrink of the step from one step to the next, and the safety factor
 /// on the step the estimate asks for.
 const GROWTH_MAX: f64 = 2.0;
-const SHRINK_MAX: f64 = 0.2;
+pub(super) const SHRINK_MAX: f64 = 0.2;
 const SAFETY: f64 = 0.9;
 
 /// The controller's memory: the mean accelerations of the last smooth steps, newest first,
@@ -255,6 +255,20 @@ impl Controller {
 mod tests {
     use super::*;
 
+    /// A step of size `h` from `v0` to `v1` with no contact in it.
+    fn smooth<'a>(h: f64, v0: &'a DVector<f64>, v1: &'a DVector<f64>) -> Taken<'a> {
+        Taken {
+            h,
+            v0,
+            v1,
+            closed: false,
+            constrained: false,
+            overshoot: 0.0,
+            located: false,
+            clipped: false,
+        }
+    }
+
     fn one_dof(v: f64) -> DVector<f64> {
         let mut x = DVector::zeros(6);
         x[0] = v;
@@ -301,32 +315,12 @@ mod tests {
         // constant acceleration: no error, growth capped at 2
         for _ in 0..2 {
             let v1 = one_dof(h * 9.81);
-            let step = Taken {
-                h,
-                v0: &v0,
-                v1: &v1,
-                closed: false,
-                constrained: false,
-                overshoot: 0.0,
-                located: false,
-                clipped: false,
-            };
-            assert_eq!(ctl.judge(&c, &step), Verdict::Accept);
+            assert_eq!(ctl.judge(&c, &smooth(h, &v0, &v1)), Verdict::Accept);
         }
         assert_eq!(ctl.proposal, 2.0 * h);
         // an acceleration jump of 1e4 m/s²: e = h²/12 · 1e4 · 2 ≈ 1.7e-3 ≫ 1e-6
         let v1 = one_dof(h * (9.81 + 1e4));
-        let step = Taken {
-            h,
-            v0: &v0,
-            v1: &v1,
-            closed: false,
-            constrained: false,
-            overshoot: 0.0,
-            located: false,
-            clipped: false,
-        };
-        match ctl.judge(&c, &step) {
+        match ctl.judge(&c, &smooth(h, &v0, &v1)) {
             Verdict::Retry(h_new) => assert_eq!(h_new, SHRINK_MAX * h),
             v => panic!("{v:?}"),
         }
@@ -342,14 +336,8 @@ mod tests {
         let mut ctl = Controller::new(1e-3, vec![0.0]);
         let (v0, v1) = (one_dof(-2.0), one_dof(1.6));
         let closed = |h| Taken {
-            h,
-            v0: &v0,
-            v1: &v1,
             closed: true,
-            constrained: false,
-            overshoot: 0.0,
-            located: false,
-            clipped: false,
+            ..smooth(h, &v0, &v1)
         };
         // h/2 · 3.6 m/s = 1.8e-3 m at 1 ms: retried at 0.9 · 1e-6 / 1.8 s
         let Verdict::Retry(h) = ctl.judge(&c, &closed(1e-3)) else {
