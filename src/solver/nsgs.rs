@@ -64,7 +64,7 @@ pub struct SolverStorage {
 #[derive(Default)]
 struct Sweeps {
     /// Each contact's block of W and its inverse (for the sticking test).
-    blocks: Vec<(Matrix3<f64>, Option<Matrix3<f64>>)>,
+    blocks: Vec<(Matrix3<f64>, BlockInverse)>,
     coupled: Coupling,
     /// The local velocity u = W r + q after a sweep.
     u: DVector<f64>,
@@ -102,7 +102,7 @@ pub fn solve_fc3d(
     blocks.clear();
     blocks.extend((0..n).map(|a| {
         let block = block3(p.w, 3 * a, 3 * a);
-        (block, block.try_inverse())
+        (block, BlockInverse::of(&block))
     }));
     // the contacts each one is coupled to, with their (nonzero) off-diagonal blocks W_ab:
     // contacts on bodies W does not couple leave each other's blocks zero, and skipping
@@ -160,7 +160,7 @@ pub fn solve_fc3d(
 fn sweep_contacts(
     p: &Fc3d,
     r: &mut DVector<f64>,
-    blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
+    blocks: &[(Matrix3<f64>, BlockInverse)],
     coupled: &Coupling,
 ) {
     for (a, (block, inverse)) in blocks.iter().enumerate() {
@@ -171,7 +171,7 @@ fn sweep_contacts(
         for (b, w_ab) in coupled.of_contact(a) {
             qloc += w_ab * vector3(r, 3 * b);
         }
-        let sol = solve_one_contact(block, inverse.as_ref(), &qloc, p.mu[a], &ra);
+        let sol = solve_one_contact(block, inverse, &qloc, p.mu[a], &ra);
         set_vector3(r, o, &sol);
     }
 }
@@ -220,7 +220,7 @@ impl Coupling {
 fn local_velocity(
     p: &Fc3d,
     r: &DVector<f64>,
-    blocks: &[(Matrix3<f64>, Option<Matrix3<f64>>)],
+    blocks: &[(Matrix3<f64>, BlockInverse)],
     coupled: &Coupling,
     u: &mut DVector<f64>,
 ) {
@@ -268,13 +268,84 @@ fn last_resort(
     }
 }
 
+/// A contact's block of W, inverted for the sticking test.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockInverse {
+    /// W⁻¹, or W⁺ where W is singular (None where that fails).
+    pub matrix: Option<Matrix3<f64>>,
+    pub singular: bool,
+}
+
+/// A contact's block is singular where its determinant is below this fraction of
+/// (tr W / 3)³; its singular values below this fraction of tr W are zero.
+const SINGULAR: f64 = 1e-10;
+
+impl BlockInverse {
+    pub fn of(w: &Matrix3<f64>) -> Self {
+        let size = (w.trace() / 3.0).abs();
+        if w.determinant().abs() > SINGULAR * size * size * size {
+            if let Some(inverse) = w.try_inverse() {
+                return BlockInverse {
+                    matrix: Some(inverse),
+                    singular: false,
+                };
+            }
+        }
+        BlockInverse {
+            matrix: pseudo_inverse(w),
+            singular: true,
+        }
+    }
+}
+
+/// M⁺ of a singular 3×3 matrix, in closed form. The rows' cross products span M's right
+/// null space and the columns' its left one (they are the adjugate's columns and rows).
+/// Of rank two, with unit null vectors n_r, n_l and s = |M|: M + s n_l n_rᵀ is regular and
+/// M⁺ = (M + s n_l n_rᵀ)⁻¹ − n_r n_lᵀ / s. Of rank one (every cross product below
+/// SINGULAR of |M|²), M = σ u vᵀ and M⁺ = v uᵀ / σ.
+fn pseudo_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let largest = |v: [Vector3<f64>; 3]| v.into_iter().max_by(|a, b| a.norm().total_cmp(&b.norm()));
+    let (r, c) = (
+        |k: usize| m.row(k).transpose(),
+        |k: usize| m.column(k).into_owned(),
+    );
+    let size = m.norm();
+    let right = largest([r(1).cross(&r(2)), r(2).cross(&r(0)), r(0).cross(&r(1))])?;
+    let left = largest([c(1).cross(&c(2)), c(2).cross(&c(0)), c(0).cross(&c(1))])?;
+    if right.norm() > SINGULAR * size * size && left.norm() > SINGULAR * size * size {
+        let (n_r, n_l) = (right.normalize(), left.normalize());
+        let regular = m + n_l * n_r.transpose() * size;
+        return Some(regular.try_inverse()? - n_r * n_l.transpose() / size);
+    }
+    let u = largest([c(0), c(1), c(2)])?.normalize();
+    let v = largest([r(0), r(1), r(2)])?.normalize();
+    let sigma = u.dot(&(m * v));
+    (sigma != 0.0 && sigma.is_finite()).then(|| v * u.transpose() / sigma)
+}
+
+/// The damped least-squares inverse (MᵀM + δ²I)⁻¹ Mᵀ with δ 1e-7 of M's size: M⁺ to within
+/// (δ/σ)² along each singular value σ ≫ δ, and small along M's null directions (a Newton
+/// step's, which the next step corrects; the sticking impulse takes the exact M⁺).
+fn least_norm_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let damping = (1e-7 * m.norm()).powi(2);
+    let normal = m.transpose() * m + Matrix3::identity() * damping;
+    Some(normal.try_inverse()? * m.transpose())
+}
+
 /// Exact solution of the one-contact problem u = W r + q, K* ∋ û ⟂ r ∈ K (to round-off),
-/// starting from `r0`, given W⁻¹ (None if W is singular). Tries the closed-form separation
-/// and sticking solutions first, then Alart–Curnier Newton for sliding, then the
-/// projection method if Newton stalls.
+/// starting from `r0`. Tries the closed-form separation and sticking solutions first, then
+/// Alart–Curnier Newton for sliding, then the projection method if Newton stalls.
+///
+/// A singular W belongs to a contact on a part that its joints let move in fewer than three
+/// directions at the point (a handle on its stop, turning about an ideal pivot): an impulse
+/// along W's null directions moves nothing (the joints carry it), so the impulse is not
+/// unique, and no impulse reaches the velocity outside W's range (round-off of the joints'
+/// rows). The solve then takes the normal impulse alone where it holds the point (the
+/// joints carry the rest), else the sticking impulse of least norm (W⁺ in place of W⁻¹),
+/// else damped Newton steps that leave the null directions alone.
 pub fn solve_one_contact(
     w: &Matrix3<f64>,
-    w_inverse: Option<&Matrix3<f64>>,
+    inverse: &BlockInverse,
     q: &Vector3<f64>,
     mu: f64,
     r0: &Vector3<f64>,
@@ -286,8 +357,16 @@ pub fn solve_one_contact(
     if mu == 0.0 {
         return Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
     }
+    // a singular block: where the joints can carry the tangential impulse, the contact
+    // carries none (the normal impulse alone holds the point)
+    if inverse.singular {
+        let r = Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
+        if (w * r + q).norm() <= SINGULAR * q.norm() {
+            return r;
+        }
+    }
     // sticking: u = 0 with r inside the cone
-    if let Some(inverse) = w_inverse {
+    if let Some(inverse) = &inverse.matrix {
         let r = -(inverse * q);
         if r.x > 0.0 && (r.y * r.y + r.z * r.z).sqrt() <= mu * r.x {
             return r;
@@ -299,10 +378,8 @@ pub fn solve_one_contact(
     } else {
         Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0)
     };
-    let rho_n = 1.0 / w[(0, 0)];
-    let rho_t = 1.0 / w[(1, 1)].max(w[(2, 2)]);
-    let scale = start.norm().max(rho_n * q.norm());
-    if let Some(r) = alart_curnier_newton(w, q, mu, rho_n, rho_t, start, scale) {
+    let scale = start.norm().max((1.0 / w[(0, 0)]) * q.norm());
+    if let Some(r) = alart_curnier_newton(w, q, mu, start, scale, inverse.singular) {
         return r;
     }
     projection_fallback(w, q, mu, start, scale)
@@ -353,11 +430,12 @@ fn alart_curnier_newton(
     w: &Matrix3<f64>,
     q: &Vector3<f64>,
     mu: f64,
-    rho_n: f64,
-    rho_t: f64,
     mut r: Vector3<f64>,
     scale: f64,
+    singular: bool,
 ) -> Option<Vector3<f64>> {
+    let rho_n = 1.0 / w[(0, 0)];
+    let rho_t = 1.0 / w[(1, 1)].max(w[(2, 2)]);
     let tol = 1e-15 * scale.max(f64::MIN_POSITIVE);
     let (mut phi, mut jac) = alart_curnier(w, q, mu, rho_n, rho_t, &r);
     for _ in 0..50 {
@@ -365,7 +443,13 @@ fn alart_curnier_newton(
         if f0.sqrt() <= tol {
             return Some(r);
         }
-        let dr = jac.try_inverse()? * (-phi);
+        // a singular W can leave the Jacobian singular along W's null directions: the step
+        // of least norm leaves the impulse there as it is
+        let inverse = match singular {
+            false => jac.try_inverse()?,
+            true => least_norm_inverse(&jac)?,
+        };
+        let dr = inverse * (-phi);
         // Armijo backtracking on ½‖Φ‖²
         let mut t = 1.0;
         loop {
@@ -460,6 +544,70 @@ mod tests {
         assert!((r[0] + r[3] - 2.0 / (2.0 - eps)).abs() <= 1e-9, "{r}");
         assert!((r[0] - r[3]).abs() <= 1e-6, "{r}");
         assert!([1, 2, 4, 5].iter().all(|&k| r[k] == 0.0), "{r}");
+    }
+
+    /// A contact on a part that turns about an ideal pivot (the handle of a toggle clamp
+    /// on its stop): W = λ d dᵀ has rank one, with round-off off its range, and q = −c d
+    /// pushes the point along d. The normal impulse alone holds it, r_N = c / (λ d_N):
+    /// the pivot carries the tangential load, whatever the warm start, even one on the
+    /// cone's edge with a part along W's null directions.
+    #[test]
+    fn a_singular_block_sticks_with_the_normal_impulse_alone() {
+        let d = Vector3::new(1.0, 0.15, 0.05).normalize();
+        let noise = Matrix3::new(3e-15, -1e-15, 2e-15, 1e-15, -2e-15, 0.0, 0.0, 4e-15, 1e-15);
+        let w = d * d.transpose() * 2.5 + noise;
+        let off_range = d.cross(&Vector3::z()).normalize();
+        let q = d * -0.01 + off_range * 1e-14;
+        let inverse = BlockInverse::of(&w);
+        assert!(inverse.singular);
+        let expected = Vector3::new(0.01 / (2.5 * d.x), 0.0, 0.0);
+        let edge = Vector3::new(1.0, 0.18, 0.0669).normalize() * 4.7e-3;
+        for r0 in [Vector3::zeros(), expected, edge] {
+            let r = solve_one_contact(&w, &inverse, &q, 0.2, &r0);
+            assert!(
+                (r - expected).norm() <= 1e-12 * expected.norm(),
+                "from {r0}: {r}"
+            );
+        }
+    }
+
+    /// A rank-two block (the tangent along a planar mechanism's pivot axes moves nothing)
+    /// on which the point needs friction to stick: the sticking impulse of least norm,
+    /// nothing along the null direction. Pushed harder along the tangent, it slides: r_N =
+    /// −q_N / W_NN and the friction μ r_N against the slip.
+    #[test]
+    fn a_singular_block_sticks_or_slides_with_nothing_along_its_null_direction() {
+        let w = Matrix3::from_diagonal(&Vector3::new(147.0, 0.0, 33.0));
+        let mu = 0.1;
+        let inverse = BlockInverse::of(&w);
+        assert!(inverse.singular);
+        let zero = Vector3::zeros();
+        let sticks = solve_one_contact(&w, &inverse, &Vector3::new(-1.0, 0.0, -1e-3), mu, &zero);
+        let expected = Vector3::new(1.0 / 147.0, 0.0, 1e-3 / 33.0);
+        assert!((sticks - expected).norm() <= 1e-15, "{sticks}");
+        let slides = solve_one_contact(&w, &inverse, &Vector3::new(-1.0, 0.0, -5.0), mu, &zero);
+        let expected = Vector3::new(1.0 / 147.0, 0.0, mu / 147.0);
+        assert!((slides - expected).norm() <= 1e-14, "{slides}");
+    }
+
+    /// The closed-form pseudo-inverse of singular blocks, nonsymmetric, of rank one and
+    /// two, against the SVD's.
+    #[test]
+    fn a_singular_block_inverts_as_the_svd_does() {
+        let (a, b) = (Vector3::new(0.3, -1.2, 0.7), Vector3::new(2.0, 0.4, -0.5));
+        let (c, d) = (Vector3::new(-0.6, 0.1, 1.1), Vector3::new(0.2, 1.5, 0.9));
+        for m in [
+            a * b.transpose() * 3.0,
+            a * b.transpose() + c * d.transpose(),
+        ] {
+            let svd = m.pseudo_inverse(1e-12).unwrap();
+            let closed = pseudo_inverse(&m).unwrap();
+            assert!(
+                (closed - svd).norm() <= 1e-12 * svd.norm(),
+                "{closed} {svd}"
+            );
+            assert!(BlockInverse::of(&m).singular);
+        }
     }
 
     /// A solve reads nothing that an earlier one left in its storage: two coupled
