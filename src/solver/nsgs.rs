@@ -273,14 +273,17 @@ fn last_resort(
 pub struct BlockInverse {
     /// W⁻¹, or W⁺ where W is singular (None where that fails).
     pub matrix: Option<Matrix3<f64>>,
+    /// W is singular: the contact's impulse is not unique (`solve_one_contact`).
     pub singular: bool,
 }
 
 /// A contact's block is singular where its determinant is below this fraction of
-/// (tr W / 3)³; its singular values below this fraction of tr W are zero.
+/// (tr W / 3)³, and of rank one where its second singular value is below this fraction of
+/// its first.
 const SINGULAR: f64 = 1e-10;
 
 impl BlockInverse {
+    /// W⁻¹ where W is regular, else W⁺.
     pub fn of(w: &Matrix3<f64>) -> Self {
         let size = (w.trace() / 3.0).abs();
         if w.determinant().abs() > SINGULAR * size * size * size {
@@ -301,8 +304,8 @@ impl BlockInverse {
 /// M⁺ of a singular 3×3 matrix, in closed form. The rows' cross products span M's right
 /// null space and the columns' its left one (they are the adjugate's columns and rows).
 /// Of rank two, with unit null vectors n_r, n_l and s = |M|: M + s n_l n_rᵀ is regular and
-/// M⁺ = (M + s n_l n_rᵀ)⁻¹ − n_r n_lᵀ / s. Of rank one (every cross product below
-/// SINGULAR of |M|²), M = σ u vᵀ and M⁺ = v uᵀ / σ.
+/// M⁺ = (M + s n_l n_rᵀ)⁻¹ − n_r n_lᵀ / s. Of rank one (the largest cross product, about
+/// σ₁σ₂, below SINGULAR of |M|²), M = σ u vᵀ and M⁺ = v uᵀ / σ.
 fn pseudo_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let largest = |v: [Vector3<f64>; 3]| v.into_iter().max_by(|a, b| a.norm().total_cmp(&b.norm()));
     let (r, c) = (

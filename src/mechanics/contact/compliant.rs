@@ -16,6 +16,8 @@ use super::clearance::ClearanceJoint;
 use super::{ContactPair, ContactPoint};
 use crate::mechanics::body::Pose;
 use nalgebra::{Matrix3, Matrix6, Vector3};
+use std::collections::BTreeMap;
+use std::sync::{Mutex, MutexGuard};
 
 /// The impact speed a contact is taken to have closed at when it closed slower (m/s): a
 /// contact pressed on slowly (a clamp closing, a part settling) then has the damping of an
@@ -42,25 +44,48 @@ impl Dissipation {
     /// its own length and time, x'' = −xⁿ (1 + χ x') from x = 0, x' = 1, and leaves at
     /// −x' = e(χ, n) whatever the mass, stiffness and speed; e falls with χ, which is
     /// found by bisection on that motion (integrated by RK4).
+    ///
+    /// A study builds its scene anew for every sample, with the same e and n unless they
+    /// are sampled: each pair is solved once in a process (a solve takes about 10 ms) and
+    /// remembered, which changes no result.
     pub fn matched(e: f64, n: f64) -> Dissipation {
-        if e >= 1.0 {
-            return Dissipation::Matched(0.0);
+        let key = (e.to_bits(), n.to_bits());
+        if let Some(&chi) = solved_chis().get(&key) {
+            return Dissipation::Matched(chi);
         }
-        // e ≤ 0 needs an infinite χ: the bracket stops growing at 1e12
-        let (mut lo, mut hi) = (0.0, 1.0);
-        while rebound(hi, n) > e && hi < 1e12 {
-            hi *= 2.0;
-        }
-        for _ in 0..45 {
-            let mid = 0.5 * (lo + hi);
-            if rebound(mid, n) > e {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        Dissipation::Matched(0.5 * (lo + hi))
+        let chi = matched_chi(e, n);
+        solved_chis().insert(key, chi);
+        Dissipation::Matched(chi)
     }
+}
+
+/// The χ of every (e, n) solved so far in this process, by their bits.
+fn solved_chis() -> MutexGuard<'static, BTreeMap<(u64, u64), f64>> {
+    static SOLVED: Mutex<BTreeMap<(u64, u64), f64>> = Mutex::new(BTreeMap::new());
+    SOLVED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// χ of `Dissipation::matched`, by bisection.
+fn matched_chi(e: f64, n: f64) -> f64 {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    // e ≤ 0 needs an infinite χ: the bracket stops growing at 1e12
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while rebound(hi, n) > e && hi < 1e12 {
+        hi *= 2.0;
+    }
+    for _ in 0..45 {
+        let mid = 0.5 * (lo + hi);
+        if rebound(mid, n) > e {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The speed −x' at which x'' = −xⁿ max(0, 1 + χ x') returns to x = 0 from x = 0, x' = 1.
