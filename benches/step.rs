@@ -8,6 +8,9 @@
 //!
 //! - pendulum and slider-crank with the joint ideal versus with clearance.
 //!
+//! - a toggle clamp (tests/data/toggle-clamp.yaml) closing, and closing then locked on its
+//!   stop for 340 ms: a contact on a part its joints lock has a singular block.
+//!
 //! Criterion reports time per element = per step. Run: `cargo bench --bench step`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -93,5 +96,14 @@ fn clearance(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, steps, schemes, clearance);
+/// The toggle clamp's first 40 ms (closing, no rigid contact) and its whole 400 ms (then
+/// at rest on its stop): the second's time per step is mostly the rest's.
+fn locked(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/toggle-clamp.yaml");
+    let clamp = Scene::load(&path).unwrap();
+    bench_with(c, "locked", "toggle_clamp_closing", clamp.clone(), 0.04);
+    bench_with(c, "locked", "toggle_clamp_then_at_rest", clamp, 0.4);
+}
+
+criterion_group!(benches, steps, schemes, clearance, locked);
 criterion_main!(benches);
