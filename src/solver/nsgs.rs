@@ -357,16 +357,15 @@ pub fn solve_one_contact(
     if q.x >= 0.0 {
         return Vector3::zeros();
     }
+    // the normal impulse alone that stops the point along its normal
+    let normal_only = Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
     if mu == 0.0 {
-        return Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
+        return normal_only;
     }
     // a singular block: where the joints can carry the tangential impulse, the contact
     // carries none (the normal impulse alone holds the point)
-    if inverse.singular {
-        let r = Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0);
-        if (w * r + q).norm() <= SINGULAR * q.norm() {
-            return r;
-        }
+    if inverse.singular && (w * normal_only + q).norm() <= SINGULAR * q.norm() {
+        return normal_only;
     }
     // sticking: u = 0 with r inside the cone
     if let Some(inverse) = &inverse.matrix {
@@ -376,11 +375,7 @@ pub fn solve_one_contact(
         }
     }
     // sliding: Alart–Curnier Newton from the warm start (or the normal-only guess)
-    let start = if r0.x > 0.0 {
-        *r0
-    } else {
-        Vector3::new(-q.x / w[(0, 0)], 0.0, 0.0)
-    };
+    let start = if r0.x > 0.0 { *r0 } else { normal_only };
     let scale = start.norm().max((1.0 / w[(0, 0)]) * q.norm());
     if let Some(r) = alart_curnier_newton(w, q, mu, start, scale, inverse.singular) {
         return r;
