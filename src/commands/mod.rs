@@ -3,6 +3,7 @@
 //! user reads. `Command` lists them; `main.rs` parses and dispatches.
 
 mod allocate;
+mod compare;
 mod converge;
 mod merge;
 mod paths;
@@ -14,6 +15,7 @@ mod status;
 mod worst_case;
 
 pub use allocate::{allocate, AllocateArgs};
+pub use compare::{compare, CompareArgs};
 pub use converge::{converge, ConvergeArgs};
 pub use merge::{merge, MergeArgs};
 pub use paths::{paths, PathsArgs};
@@ -57,6 +59,16 @@ pub enum Command {
     /// work–precision plot work-precision.svg (and .png), and recommends the cheapest
     /// fidelity under the target as a `fidelity` block.
     Converge(ConvergeArgs),
+    /// Compare two runs of a study sample by sample, in units of each output's σ.
+    ///
+    /// Matches the samples of two result directories (or results files) by sample id, e.g.
+    /// a study run at its fidelity and again at a finer one, and prints per output the
+    /// median, 90th percentile and largest difference in units of the reference's
+    /// Monte-Carlo σ, the samples above `--target` and five times it, and each run's
+    /// median steps and time a sample. `converge` judges a fidelity on a few samples; this
+    /// finds the samples whose course changes with the step. With `--check` the exit
+    /// status is 1 when a sample is above the target.
+    Compare(CompareArgs),
     /// Write the self-contained HTML report of a result directory.
     ///
     /// One page, OUT/report/report.html (figures inlined as SVG, no network), with the
@@ -117,6 +129,7 @@ impl Command {
             Command::Run(args) => run(args),
             Command::Merge(args) => done(merge(args)),
             Command::Converge(args) => done(converge(args)),
+            Command::Compare(args) => compare(args),
             Command::Report(args) => done(report(args)),
             Command::Status(args) => done(status(args)),
             Command::Slurm(args) => done(slurm(args)),

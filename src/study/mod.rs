@@ -3,6 +3,7 @@
 //! store, merging, and the summary statistics. See docs/studies.md.
 
 mod build;
+pub mod compare;
 pub mod converge;
 pub mod copula;
 pub mod curves;
