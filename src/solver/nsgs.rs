@@ -279,7 +279,8 @@ pub struct BlockInverse {
 
 /// A contact's block is singular where its determinant is below this fraction of
 /// (tr W / 3)³, and of rank one where its second singular value is below this fraction of
-/// its first.
+/// its first; on a singular block, the normal impulse alone holds the point where it
+/// leaves a velocity below this fraction of |q|.
 const SINGULAR: f64 = 1e-10;
 
 impl BlockInverse {
