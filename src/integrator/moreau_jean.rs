@@ -38,9 +38,10 @@ pub type ContactsAt<'a> = &'a dyn Fn(&[Pose], &mut Vec<ContactPoint>);
 pub struct ActiveAt<'a> {
     /// Positions of the persistent contacts among the active ones, ascending.
     pub persistent: &'a [usize],
-    /// Those of them whose normal can turn over a step, the ones evaluated at mid-step and
-    /// at the end: a contact on a plane that cannot turn keeps its start rows, as any
-    /// contact whose normal does not turn does, without being evaluated to find that out.
+    /// Those of them whose normal row can turn over a step, the ones evaluated at mid-step
+    /// and at the end: a contact on a plane that cannot turn, of a body that does not turn
+    /// either, keeps its start rows without being evaluated to find that out, as any
+    /// contact whose normal row does not turn does.
     pub turning: &'a [usize],
     /// The turning contacts evaluated at the given poses.
     pub at: ContactsAt<'a>,
@@ -77,7 +78,7 @@ pub struct VelocityStep {
     pub impulses: Vec<Vector3<f64>>,
     /// Each active contact's normal velocity u_N,k+1 at the step's end, measured along the
     /// rows its velocity condition was imposed on: the end rows of a persistent contact
-    /// whose normal turns, the start rows of any other.
+    /// whose normal row turns, the start rows of any other.
     pub normal_speeds: Vec<f64>,
     pub newton_iterations: usize,
     pub newton_converged: bool,
@@ -112,13 +113,15 @@ pub(super) fn advance_poses_into(
     }));
 }
 
-/// A persistent contact whose normal turns by more than this (rad) over its step acts on
-/// its midpoint rows and meets its velocity condition on its end rows. Below, the start
-/// rows differ from those by less than the solver's tolerance.
-const NORMAL_TURN: f64 = 1e-6;
+/// A persistent contact whose normal row turns by more than this (rad) over its step
+/// (`ContactPoint::row_turn`: its normal, or the lever from a body's centre to the point,
+/// as on a body that turns while its point slides along a fixed face) acts on its midpoint
+/// rows and meets its velocity condition on its end rows. Below, the start rows differ
+/// from those by less than the solver's tolerance.
+pub(super) const ROW_TURN: f64 = 1e-6;
 
-/// Under a projection, a persistent contact whose normal turns by more than this over its
-/// step (a chord of 0.2, 11.5°) keeps its start rows: its rows at mid-step and at the end
+/// Under a projection, a persistent contact whose normal row turns by more than this over
+/// its step (a chord of 0.2, 11.5°) keeps its start rows: its rows at mid-step and at the end
 /// are then those of other points, not of one point sliding along its surface, which is
 /// what they stand for, and the projection removes the drift that start rows leave. A
 /// journal that one step throws across its bore is such a contact: the circuit breaker
@@ -238,7 +241,7 @@ pub fn velocity_step(
     let momentum_scale = storage.start_forces(start);
     // the rows the impulses act along (G) and those the end-of-step velocity meets (H, when
     // they differ): the start-of-step ones, but at the midpoint and the end for the
-    // persistent contacts whose normal turns
+    // persistent contacts whose normal row turns
     let persistent = contacts.filter(|c| !c.persistent.is_empty() && params.h > 0.0);
     let turning = persistent.filter(|c| !c.turning.is_empty());
     storage.problem.start_rows(active, start.mask);
@@ -434,8 +437,8 @@ impl VelocityStorage {
         self.v_free.zip_apply(v, |f, vi| *f = vi - *f);
     }
 
-    /// The persistent contacts whose normal turns over the step act along their mid-step
-    /// rows and are measured along their end rows: a normal that does not turn keeps the
+    /// The persistent contacts whose normal row turns over the step act along their mid-step
+    /// rows and are measured along their end rows: a row that does not turn keeps the
     /// start rows (and the Delassus matrix symmetric, which the solver's sweeps need to
     /// converge fast), and so do one that swings (`SWUNG`) and one thrown with a guard.
     ///
@@ -457,12 +460,12 @@ impl VelocityStorage {
         (c.at)(&self.poses1, &mut self.at_end);
         for (k, &a) in c.turning.iter().enumerate() {
             let (at_mid, at_end) = (&mut self.at_mid[k], &mut self.at_end[k]);
-            let n0 = active[a].point.frame.row(0);
-            let turn = (at_mid.frame.row(0) - n0)
-                .norm()
-                .max((at_end.frame.row(0) - n0).norm());
+            let start_point = active[a].point;
+            let turn = at_mid
+                .row_turn(start_point)
+                .max(at_end.row_turn(start_point));
             let swung = projects && (turn > SWUNG || guarded(active[a].point));
-            if turn <= NORMAL_TURN || swung {
+            if turn <= ROW_TURN || swung {
                 continue;
             }
             // the impulse and the velocity on the tangents of the start, carried over

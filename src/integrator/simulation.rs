@@ -6,7 +6,7 @@
 
 use super::elimination::Elimination;
 use super::moreau_jean::{
-    velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep,
+    velocity_step, ActiveAt, ActiveContact, JointRowsAt, StepStart, VelocityStep, ROW_TURN,
 };
 use super::params::{IntegrationParameters, Scheme};
 use super::projection::{
@@ -579,7 +579,7 @@ impl Simulation {
     }
 
     /// Into `lists`: the positions among `active` of the closed contacts (persistent), of
-    /// those whose normal can turn, their candidates, and the warm start.
+    /// those whose normal row can turn, their candidates, and the warm start.
     ///
     /// The closed contacts also act along their rows at mid-step and meet their velocity
     /// condition along those at the step's end (`ActiveAt`). On start-of-step rows a
@@ -595,6 +595,9 @@ impl Simulation {
             turning_candidates,
             warm,
         } = lists;
+        // a body turning by more than ROW_TURN in the step turns the lever to a point it
+        // slides along a fixed plane with
+        let turns = |b: usize| self.h * self.state.v.fixed_rows::<3>(6 * b + 3).norm() > ROW_TURN;
         persistent.clear();
         persistent.extend(
             (0..active.len())
@@ -607,7 +610,8 @@ impl Simulation {
                 .copied()
                 .filter(|&k| match self.candidates[active[k]] {
                     Candidate::Pair { pair, .. } => {
-                        !self.model.contacts[pair].normal_is_fixed(&self.mask)
+                        let c = &self.model.contacts[pair];
+                        !c.normal_is_fixed(&self.mask) || c.body1.is_some_and(turns)
                     }
                     _ => true,
                 }),

@@ -409,6 +409,30 @@ impl ContactPoint {
         g
     }
 
+    /// How far the normal row has turned from `start`'s: the larger of the normal's turn
+    /// and, for each moving body, the turn of the lever from its centre to the point
+    /// (the change of arm × n over the arm's length).
+    pub fn row_turn(&self, start: &ContactPoint) -> f64 {
+        let n0 = start.frame.row(0).transpose();
+        let n1 = self.frame.row(0).transpose();
+        let mut turn = (n1 - n0).norm();
+        if let (Jacobian::Lever { arm: a1, .. }, Jacobian::Lever { arm: a0, .. }) =
+            (&self.jacobian, &start.jacobian)
+        {
+            for (side, body) in [self.body1, self.body2].into_iter().enumerate() {
+                if body.is_none() {
+                    continue;
+                }
+                let len = a0[side].norm().max(a1[side].norm());
+                if len > 0.0 {
+                    let d = (a1[side].cross(&n1) - a0[side].cross(&n0)).norm() / len;
+                    turn = turn.max(d);
+                }
+            }
+        }
+        turn
+    }
+
     /// Adds the generalized force of the local force `f` (n, t1, t2) on body 1, and its
     /// reaction on body 2, to `out` (6 entries per body): G₁ᵀ f and G₂ᵀ f.
     pub fn add_generalized(&self, f: &Vector3<f64>, out: &mut [f64]) {
