@@ -76,19 +76,7 @@ fn small_amplitude_period_matches_the_compound_pendulum() {
 
 /// θ'' = −(m g L/2 / I_O) sin θ by RK4 with a fine step.
 fn rk4_angle(theta0: f64, t_end: f64, k: f64) -> f64 {
-    let n = 200_000;
-    let h = t_end / n as f64;
-    let (mut th, mut w) = (theta0, 0.0);
-    let f = |th: f64| -k * th.sin();
-    for _ in 0..n {
-        let (k1t, k1w) = (w, f(th));
-        let (k2t, k2w) = (w + 0.5 * h * k1w, f(th + 0.5 * h * k1t));
-        let (k3t, k3w) = (w + 0.5 * h * k2w, f(th + 0.5 * h * k2t));
-        let (k4t, k4w) = (w + h * k3w, f(th + h * k3t));
-        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
-        w += h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
-    }
-    th
+    common::rk4_angle_from_rest(theta0, t_end, 200_000, |th| -k * th.sin())
 }
 
 #[test]

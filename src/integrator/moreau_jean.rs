@@ -464,7 +464,7 @@ impl VelocityStorage {
             let turn = at_mid
                 .row_turn(start_point)
                 .max(at_end.row_turn(start_point));
-            let swung = projects && (turn > SWUNG || guarded(active[a].point));
+            let swung = projects && (turn > SWUNG || guarded(start_point));
             if turn <= ROW_TURN || swung {
                 continue;
             }

@@ -30,6 +30,27 @@ pub fn loglog_slope(h: &[f64], err: &[f64]) -> f64 {
     sxy / sxx
 }
 
+/// θ(t_end) of θ'' = accel(θ) from rest at θ₀, by classical RK4 in `steps` equal steps: the
+/// reference angle of one-degree-of-freedom mechanisms (a pendulum, a sliding ladder).
+pub fn rk4_angle_from_rest(
+    theta0: f64,
+    t_end: f64,
+    steps: usize,
+    accel: impl Fn(f64) -> f64,
+) -> f64 {
+    let h = t_end / steps as f64;
+    let (mut th, mut w) = (theta0, 0.0);
+    for _ in 0..steps {
+        let (k1t, k1w) = (w, accel(th));
+        let (k2t, k2w) = (w + 0.5 * h * k1w, accel(th + 0.5 * h * k1t));
+        let (k3t, k3w) = (w + 0.5 * h * k2w, accel(th + 0.5 * h * k2t));
+        let (k4t, k4w) = (w + h * k3w, accel(th + h * k3t));
+        th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
+        w += h / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w);
+    }
+    th
+}
+
 /// A fresh, empty scratch directory for one test.
 pub fn scratch(name: &str) -> std::path::PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
