@@ -442,6 +442,21 @@ fn refine_names_an_unknown_contact_or_a_non_positive_step() {
         "refine.for",
         2,
     );
+    // `until` names an event probe of the scene
+    let until = "duration: 1 s\nrefine: { after: floor, for: 1 ms, h: 1 us, until: bounce }\n";
+    expect("duration: 1 s\n", until, "refine.until", 2);
+    assert!(error_of("duration: 1 s\n", until).contains("unknown event probe `bounce`"));
+    let value_probe = format!(
+        "{GOOD_BALL}probes:\n  - {{ name: bounce, measure: {{ gap: floor }}, at: 0.5 s }}\n"
+    );
+    let e = refused(
+        &value_probe.replacen("duration: 1 s\n", until, 1),
+        "a value probe closing the window",
+    );
+    assert!(
+        e.contains("refine.until") && e.contains("not an event probe"),
+        "{e}"
+    );
 }
 
 /// A legal but implausible value (a unit slip, most often) is warned about with its line

@@ -26,8 +26,14 @@ pub struct Schedule {
 pub struct Refine {
     /// The contact candidates (one pair or clearance joint) whose closing opens the window.
     pub trigger: Vec<usize>,
-    /// Length of the window (s).
+    /// Length of the window (s): the longest it lasts.
     pub duration: f64,
+    /// The event probe (its index among the scene's value and event probes) whose
+    /// happening closes the window at the end of its step, if it comes before `duration`
+    /// is over: a run that observes probes closes it (`probe::run`). The events that need
+    /// the fine step end at different times in different samples; a window that ends with
+    /// them does not run its fine steps on through what follows.
+    pub until: Option<usize>,
     /// The window's step over the integrator's h: a ratio, so that a fidelity that changes
     /// h refines the window with it.
     pub step_ratio: f64,

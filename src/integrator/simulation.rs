@@ -413,6 +413,15 @@ impl Simulation {
         self.refine_until
     }
 
+    /// Closes the refinement window now, if it is open: its event (`Refine::until`) has
+    /// happened. It does not open again.
+    pub fn close_refine_window(&mut self) {
+        let now = self.state.t;
+        if let Some(until) = self.refine_until.as_mut() {
+            *until = until.min(now);
+        }
+    }
+
     /// The step that starts now, and the time it ends at when that is a phase's end: the
     /// settle's step while settling, the refinement window's within it, each phase's last
     /// step shortened or stretched (by at most 1e-9) to end at the phase's end; else h.

@@ -898,6 +898,11 @@ impl<'a> ProbeRecorder<'a> {
         self.last_t = Some(t);
     }
 
+    /// Whether probe `i` has its value (an event probe: whether its event happened).
+    pub fn known(&self, i: usize) -> bool {
+        self.progress[i].value.is_some()
+    }
+
     /// Whether every probe is known and every curve's window closed, so that the run can
     /// stop early.
     pub fn done(&self) -> bool {

@@ -1,6 +1,7 @@
 //! A run that produces probe values: it steps a simulation, observes its probes, may stop
-//! once every probe is known, and extrapolates over the refinement window when the scene
-//! asks for it (`refine: { extrapolate: true }`).
+//! once every probe is known, closes the refinement window at its event probe (`refine:
+//! { until: … }`), and extrapolates over the window when the scene asks for it (`refine:
+//! { extrapolate: true }`).
 //!
 //! Extrapolation (Richardson): where the window opens, the run forks. The coarse branch
 //! takes the window at its step h_w, the fine branch (the one the caller keeps) at h_w/2;
@@ -142,6 +143,11 @@ fn advance(
         };
         let report = sim.step_until(until)?;
         recorder.observe(sim);
+        // the window's closing event (a no-op before it opens and once it has closed)
+        let closing = sim.schedule.refine.as_ref().and_then(|r| r.until);
+        if closing.is_some_and(|k| recorder.known(k)) {
+            sim.close_refine_window();
+        }
         observe(sim, &report);
         if stop.when_known && recorder.done() {
             break;

@@ -36,6 +36,28 @@ fn settle_friction(model: &Model, names: &Spanned<Vec<Name>>) -> R<Vec<String>> 
         .collect()
 }
 
+/// The index of the event probe `name` among the scene's value and event probes (curves
+/// left out, as the probes number them): the event that closes the refinement window.
+fn closing_event(spec: &SceneSpec, name: &Name) -> R<usize> {
+    let scalars = || spec.probes.iter().filter(|p| p.curve.is_none());
+    match scalars().position(|p| p.name.value == name.value) {
+        Some(k) if scalars().nth(k).is_some_and(|p| p.event.is_some()) => Ok(k),
+        Some(_) => Err(SceneError::at(
+            line(name),
+            "refine.until",
+            format!(
+                "probe `{}` is not an event probe; only an event can close the window",
+                name.value
+            ),
+        )),
+        None => Err(SceneError::at(
+            line(name),
+            "refine.until",
+            format!("unknown event probe `{}`", name.value),
+        )),
+    }
+}
+
 /// The scene's phases, their steps and tolerances as ratios of `params`' (so that a
 /// fidelity that changes h or the tolerance scales them in proportion).
 pub(super) fn schedule(
@@ -71,6 +93,10 @@ pub(super) fn schedule(
             trigger: super::probes::contact(model, &r.value.after, "refine.after")?,
             duration: positive(&r.value.duration, Dim::TIME, "refine.for")?,
             step_ratio: positive(&r.value.h, Dim::TIME, "refine.h")? / params.h,
+            until: match &r.value.until {
+                None => None,
+                Some(name) => Some(closing_event(spec, name)?),
+            },
             extrapolate: r.value.extrapolate,
         });
     }

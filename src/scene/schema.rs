@@ -217,8 +217,8 @@ pub struct SettleSpec {
     pub tolerance: Option<Q>,
 }
 
-/// From the first closing of contact `after`, the step is `h` for `for`
-/// (`mechanics::Refine`).
+/// From the first closing of contact `after`, the step is `h` for `for`, or until the
+/// event probe `until` happens if it does sooner (`integrator::Refine`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RefineSpec {
@@ -226,6 +226,7 @@ pub struct RefineSpec {
     #[serde(rename = "for")]
     pub duration: Q,
     pub h: Q,
+    pub until: Option<Name>,
     /// Run the window at `h` and at h/2 and extrapolate the probes (default false).
     #[serde(default)]
     pub extrapolate: bool,
