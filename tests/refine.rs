@@ -158,4 +158,21 @@ fn a_window_with_until_closes_at_its_event() {
     let (late, _) = run_steps("refine: { after: floor, for: 50 ms, h: 0.1 ms, until: rebound }");
     let fine = late.iter().filter(|&&(_, d)| d < 0.5 * h).count();
     assert_eq!(fine, 500);
+    // `simulate` reports where the window opened and closed, and its step
+    let options = mc_study::single_run::SimulateOptions {
+        duration: None,
+        trajectory: None,
+        drawing: None,
+    };
+    let scene = ball_scene(
+        "refine: { after: floor, for: 500 ms, h: 0.1 ms, until: rebound }",
+        probes,
+    );
+    let report = mc_study::single_run::simulate(&scene, "ball", &options).unwrap();
+    let (from, to, step) = report.window.expect("the window opened");
+    assert!((from - impact_end).abs() < 1e-12 && (to - window_end).abs() < 1e-9);
+    assert!((step - 1e-4).abs() < 1e-15);
+    assert!(report.to_string().contains(&format!(
+        "window           h = 1e-4 s from t = {impact_end:.6} s to {window_end:.6} s"
+    )));
 }

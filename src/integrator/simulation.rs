@@ -202,8 +202,9 @@ pub struct Simulation {
     /// Time and step count when the step size last changed: t = t0 + (steps − n0) h.
     pub(super) t0: f64,
     pub(super) n0: u64,
-    /// End of the refinement window (`Model::refine`) once its contact has closed.
-    pub(super) refine_until: Option<f64>,
+    /// The refinement window (`Schedule::refine`), its start and end, once its contact has
+    /// closed.
+    pub(super) refine_window: Option<(f64, f64)>,
     /// The poses at which every clearance joint's `check` last passed (a step's end): the
     /// next step starts from them and need not check them again.
     pub(super) checked_poses: Vec<Pose>,
@@ -280,7 +281,7 @@ impl Simulation {
             h: params.h,
             t0: state.t,
             n0: 0,
-            refine_until: None,
+            refine_window: None,
             checked_poses: Vec::new(),
             compliant_onset: vec![None; model.compliant_points()],
             compliant: Vec::new(),
@@ -410,15 +411,20 @@ impl Simulation {
 
     /// The end of the refinement window, once it has opened.
     pub fn refine_window_end(&self) -> Option<f64> {
-        self.refine_until
+        self.refine_window.map(|(_, end)| end)
+    }
+
+    /// The refinement window's start and end, once it has opened.
+    pub fn refine_window(&self) -> Option<(f64, f64)> {
+        self.refine_window
     }
 
     /// Closes the refinement window now, if it is open: its event (`Refine::until`) has
     /// happened. It does not open again.
     pub fn close_refine_window(&mut self) {
         let now = self.state.t;
-        if let Some(until) = self.refine_until.as_mut() {
-            *until = until.min(now);
+        if let Some((_, end)) = self.refine_window.as_mut() {
+            *end = end.min(now);
         }
     }
 
@@ -439,7 +445,7 @@ impl Simulation {
             };
         }
         let window = self
-            .refine_until
+            .refine_window_end()
             .zip(self.schedule.refine.as_ref())
             .map(|(until, r)| (until, r.step_ratio * self.params.h))
             .filter(|&(until, h)| t < until - 1e-9 * h);
@@ -838,9 +844,9 @@ impl Simulation {
         // the refinement window opens at the end of the step in which its contact closed
         // (a controlled run refines its steps itself)
         let refined = self.control.is_none();
-        if let (None, Some(r), true) = (self.refine_until, &self.schedule.refine, refined) {
+        if let (None, Some(r), true) = (self.refine_window, &self.schedule.refine, refined) {
             if r.trigger.iter().any(|&i| self.impulses[i].x > 0.0) {
-                self.refine_until = Some(self.state.t + r.duration);
+                self.refine_window = Some((self.state.t, self.state.t + r.duration));
             }
         }
         let s = &mut self.stats;

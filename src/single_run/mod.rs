@@ -126,6 +126,9 @@ pub struct SimulateReport {
     pub stats: RunStats,
     /// Where the refinement window forked, and its coarse and fine steps.
     pub extrapolated: Option<(f64, f64, f64)>,
+    /// The refinement window's start, end (the run's end if it was still open) and step,
+    /// if it opened.
+    pub window: Option<(f64, f64, f64)>,
     pub has_joints: bool,
     /// Whether the scene has rigid unilateral contacts (pairs, stops, clearance joints).
     pub has_contacts: bool,
@@ -284,6 +287,11 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
             let fine = r.step_ratio * sim.params.h;
             (t, 2.0 * fine, fine)
         }),
+        window: sim
+            .refine_window()
+            .zip(refine)
+            .filter(|_| sim.params.step_control.is_none())
+            .map(|((from, to), r)| (from, to.min(sim.state.t), r.step_ratio * sim.params.h)),
         has_joints: !sim.model.joints.is_empty(),
         has_contacts: !sim.contact_ids().is_empty(),
         locate_impacts: sim.params.locate_impacts,
@@ -341,6 +349,12 @@ impl fmt::Display for SimulateReport {
                 f,
                 "step control     τ = {:e} (length {:e} m, speed {:e} m/s), h from {:e} to {:e} s, the first {:e} s: {} steps taken again",
                 c.tolerance, c.length, c.speed, c.h_min, c.h_max, self.h, st.rejected_steps
+            )?;
+        }
+        if let Some((from, to, h)) = self.window {
+            writeln!(
+                f,
+                "window           h = {h:e} s from t = {from:.6} s to {to:.6} s (refine)"
             )?;
         }
         if let Some((t, coarse, fine)) = self.extrapolated {
