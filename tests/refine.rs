@@ -51,6 +51,21 @@ fn steps(sim: &mut mc_study::integrator::Simulation) -> Vec<(f64, f64)> {
     out
 }
 
+/// Every step of `steps` is h/10 from `from` to `to` (the window) and h elsewhere.
+fn assert_window(steps: &[(f64, f64)], h: f64, from: f64, to: f64) {
+    for &(t, d) in steps {
+        let expected = if t >= from - 1e-9 && t < to - 1e-9 {
+            h / 10.0
+        } else {
+            h
+        };
+        assert!(
+            (d - expected).abs() < 1e-9 * h,
+            "step at t = {t}: {d}, expected {expected} (window {from} to {to})"
+        );
+    }
+}
+
 /// The steps are h until the step in which the floor first carries an impulse (the one
 /// that ends at t₁ rounded up to the ms), h/10 for the next 50 ms, the last of them ending
 /// exactly at the window's end, then h again, also at the second impact (the window opens
@@ -64,17 +79,7 @@ fn the_window_opens_at_the_first_closing_and_takes_its_own_step() {
     let mut sim = ball("refine: { after: floor, for: 50 ms, h: 0.1 ms }", h);
     let refined = steps(&mut sim);
     let window_end = impact_end + 0.05;
-    for &(t, d) in &refined {
-        let expected = if t >= impact_end - 1e-9 && t < window_end - 1e-9 {
-            h / 10.0
-        } else {
-            h
-        };
-        assert!(
-            (d - expected).abs() < 1e-9 * h,
-            "step at t = {t}: {d}, expected {expected}"
-        );
-    }
+    assert_window(&refined, h, impact_end, window_end);
     assert!(
         refined
             .iter()
@@ -139,17 +144,7 @@ fn a_window_with_until_closes_at_its_event() {
     // (the last step ends at the run's end, off the grid that the window shifted)
     let (last, taken) = steps.split_last().unwrap();
     assert!((last.0 + last.1 - 1.3).abs() < 1e-12 && last.1 <= h);
-    for &(t, d) in taken {
-        let expected = if t >= impact_end - 1e-9 && t < window_end - 1e-9 {
-            h / 10.0
-        } else {
-            h
-        };
-        assert!(
-            (d - expected).abs() < 1e-9 * h,
-            "step at t = {t}: {d}, expected {expected} (window {impact_end} to {window_end})"
-        );
-    }
+    assert_window(taken, h, impact_end, window_end);
     let fine = steps.iter().filter(|&&(_, d)| d < 0.5 * h).count();
     let expected_fine = ((window_end - impact_end) / 1e-4).round() as usize;
     assert_eq!(fine, expected_fine);

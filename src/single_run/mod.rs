@@ -290,7 +290,6 @@ pub fn simulate(scene: &Scene, source: &str, options: &SimulateOptions) -> Resul
         window: sim
             .refine_window()
             .zip(refine)
-            .filter(|_| sim.params.step_control.is_none())
             .map(|((from, to), r)| (from, to.min(sim.state.t), r.step_ratio * sim.params.h)),
         has_joints: !sim.model.joints.is_empty(),
         has_contacts: !sim.contact_ids().is_empty(),
