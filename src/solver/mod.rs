@@ -2,10 +2,11 @@
 //!
 //! `fc3d` states the 3D frictional contact problem FC3D(W, q, μ) and its natural-map
 //! error; `nsgs` solves it by nonsmooth Gauss–Seidel with a one-contact Alart–Curnier
-//! Newton method; `lu` factorises the block-sparse matrices of its global Newton
-//! method and of `mlcp`'s equality solver, and `ordering` orders the contacts so that the
-//! factorisation stays sparse.
+//! Newton method; `block_lu` factorises the Jacobian of its global Newton method in the
+//! blocks of its pattern, `ordering` orders the contacts so that the factors stay sparse,
+//! and `lu` factorises `mlcp`'s equality systems.
 
+pub mod block_lu;
 pub mod fc3d;
 pub mod lu;
 pub mod mlcp;

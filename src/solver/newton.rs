@@ -3,12 +3,12 @@
 //! where Gauss–Seidel crawls, e.g. two contacts a few millimetres apart on a long body (the
 //! two rings of a clearance joint), whose Delassus matrix is ill-conditioned.
 
+use super::block_lu::BlockLu;
 use super::fc3d::{natural_map_error, natural_map_error_at, Fc3d};
-use super::lu::Lu;
 use super::ordering::{BlockPattern, MinimumDegree};
-use crate::math::blocks::{block3, set_block3, set_vector3, vector3};
+use crate::math::blocks::{block3, set_vector3, vector3};
 use crate::math::buffer;
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
+use nalgebra::{DVector, Matrix2, Matrix3, RowVector3, Vector2, Vector3};
 
 /// Φ of one contact and its derivatives A = ∂Φ/∂r, B = ∂Φ/∂u.
 fn local(
@@ -51,7 +51,8 @@ fn local(
 }
 
 /// Φ at the impulses `r`, whose velocity u = W r + q is `u`, into `phi`, and on request
-/// its Jacobian, into `jac`.
+/// its Jacobian, into the factors' storage `jac`, contact a at elimination position
+/// `position[a]`.
 fn phi_and_jacobian(
     p: &Fc3d,
     pattern: &BlockPattern,
@@ -59,20 +60,17 @@ fn phi_and_jacobian(
     u: &DVector<f64>,
     rho: &[(f64, f64)],
     phi: &mut DVector<f64>,
-    mut jac: Option<&mut DMatrix<f64>>,
+    mut jac: Option<(&mut BlockLu, &[usize])>,
 ) {
     let n = p.mu.len();
-    // every entry of Φ is written below; the Jacobian's blocks outside the pattern are zero
+    // every entry of Φ is written below; J's blocks outside W's pattern stay zero
     buffer::fit(phi, 3 * n);
-    if let Some(j) = jac.as_mut() {
-        buffer::zeros_matrix(j, 3 * n, 3 * n);
-    }
     for (a, &(rho_n, rho_t)) in rho.iter().enumerate().take(n) {
         let o = 3 * a;
         let (ua, ra) = (vector3(u, o), vector3(r, o));
         let (f, da, db) = local(&ua, &ra, p.mu[a], rho_n, rho_t);
         set_vector3(phi, o, &f);
-        if let Some(j) = jac.as_mut() {
+        if let Some((j, position)) = jac.as_mut() {
             // J = A + B W on the contact's rows, over W's nonzero blocks (the diagonal
             // block among them)
             for &b in pattern.row(a) {
@@ -80,7 +78,7 @@ fn phi_and_jacobian(
                 if b == a {
                     jab += da;
                 }
-                set_block3(j, o, 3 * b, &jab);
+                *j.block_mut(position[a], position[b]) = jab;
             }
         }
     }
@@ -88,10 +86,11 @@ fn phi_and_jacobian(
 
 /// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
 /// natural-map error), leaving the best iterate in `r` either way. `pattern` is W's block
-/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The contacts are
-/// taken in a fill-reducing order (`BlockPattern::minimum_degree_into`), which keeps the LU of
-/// the Jacobian sparse: on the circuit breaker it halves the factorisation's work.
-/// `storage` is the method's, reused from one call to the next.
+/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The Jacobian is
+/// factorised in its blocks (`BlockLu`), the contacts taken in a fill-reducing order
+/// (`BlockPattern::minimum_degree_into`), so that storage and work follow the pattern's
+/// fill-in rather than the problem's size. `storage` is the method's, reused from one call
+/// to the next.
 pub fn global_newton(
     p: &Fc3d,
     pattern: &BlockPattern,
@@ -101,98 +100,32 @@ pub fn global_newton(
     storage: &mut NewtonStorage,
 ) -> Option<usize> {
     let NewtonStorage {
-        reordered,
-        iterates,
-        ordering,
-    } = storage;
-    let Reordered {
         order,
-        w,
-        q,
-        mu,
-        r: reordered,
-        pattern: permuted,
-    } = reordered;
-    pattern.minimum_degree_into(order, ordering);
-    if order.iter().enumerate().all(|(k, &a)| k == a) {
-        return newton_in_order(p, pattern, r, tolerance, max_iterations, iterates);
+        ordered,
+        ordering,
+        iterates:
+            Iterates {
+                rho,
+                u,
+                u_trial,
+                phi,
+                phi_trial,
+                factors,
+                position,
+                dr,
+                trial,
+            },
+    } = storage;
+    // the order is a function of the pattern alone: computed again when the pattern changed
+    if ordered != pattern {
+        pattern.minimum_degree_into(order, ordering);
+        ordered.clone_from(pattern);
     }
-    // entry k of the reordered problem is entry `index(k)` of the original
-    let index = |k: usize| 3 * order[k / 3] + k % 3;
-    let m = r.len();
-    // column by column, every entry written once, in the storage of the last one
-    let mut data = buffer::matrix_storage(w);
-    for j in 0..m {
-        let from = &p.w.as_slice()[index(j) * m..][..m];
-        for &a in order.iter() {
-            data.extend_from_slice(&from[3 * a..3 * a + 3]);
-        }
+    position.clear();
+    position.resize(order.len(), 0);
+    for (k, &a) in order.iter().enumerate() {
+        position[a] = k;
     }
-    *w = DMatrix::from_vec(m, m, data);
-    buffer::fit(q, m);
-    buffer::fit(reordered, m);
-    for k in 0..m {
-        q[k] = p.q[index(k)];
-        reordered[k] = r[index(k)];
-    }
-    mu.clear();
-    mu.extend(order.iter().map(|&a| p.mu[a]));
-    pattern.permuted_into(order, permuted);
-    let problem = Fc3d { w, q, mu };
-    let outcome = newton_in_order(
-        &problem,
-        permuted,
-        reordered,
-        tolerance,
-        max_iterations,
-        iterates,
-    );
-    for (k, x) in reordered.iter().enumerate() {
-        r[index(k)] = *x;
-    }
-    outcome
-}
-
-/// The global Newton method's storage, reused from one solve to the next: every entry is
-/// written before it is read.
-#[derive(Default)]
-pub struct NewtonStorage {
-    reordered: Reordered,
-    iterates: Iterates,
-    ordering: MinimumDegree,
-}
-
-/// The contacts' fill-reducing order and the problem taken in it.
-#[derive(Default)]
-struct Reordered {
-    order: Vec<usize>,
-    w: DMatrix<f64>,
-    q: DVector<f64>,
-    mu: Vec<f64>,
-    r: DVector<f64>,
-    pattern: BlockPattern,
-}
-
-/// `global_newton` on the contacts in their given order.
-fn newton_in_order(
-    p: &Fc3d,
-    pattern: &BlockPattern,
-    r: &mut DVector<f64>,
-    tolerance: f64,
-    max_iterations: usize,
-    iterates: &mut Iterates,
-) -> Option<usize> {
-    let Iterates {
-        rho,
-        u,
-        u_trial,
-        phi,
-        phi_trial,
-        jac,
-        lu,
-        dr,
-        trial,
-    } = iterates;
     let n = p.mu.len();
     rho.clear();
     rho.extend((0..n).map(|a| {
@@ -212,16 +145,27 @@ fn newton_in_order(
         if natural_map_error_at(p, r, u) <= tolerance {
             return Some(it);
         }
-        phi_and_jacobian(p, pattern, r, u, rho, phi, Some(jac));
+        factors.set_pattern(pattern, order);
+        phi_and_jacobian(p, pattern, r, u, rho, phi, Some((factors, position)));
         let f0 = phi.norm_squared();
         // Redundant contacts (the two rings of a clearance joint share the axial slip
         // direction) make J singular but the equations consistent: a tiny diagonal shift
         // keeps the step defined without changing the solution.
-        let shift = 1e-10 * pattern_amax(jac, pattern).max(f64::MIN_POSITIVE);
-        lu.refactor_taking(jac, shift);
-        dr.zip_apply(phi, |d, f| *d = -f);
-        if !lu.solve_in_place(dr.as_mut_slice()) {
+        let shift = 1e-10 * factors.amax().max(f64::MIN_POSITIVE);
+        if !factors.factorise(shift) {
             return None;
+        }
+        // the step −J⁻¹Φ, solved in elimination positions
+        for (k, &a) in order.iter().enumerate() {
+            for c in 0..3 {
+                trial[3 * k + c] = -phi[3 * a + c];
+            }
+        }
+        factors.solve_in_place(trial.as_mut_slice());
+        for (k, &a) in order.iter().enumerate() {
+            for c in 0..3 {
+                dr[3 * a + c] = trial[3 * k + c];
+            }
         }
         let mut t = 1.0;
         loop {
@@ -242,6 +186,17 @@ fn newton_in_order(
     (natural_map_error_at(p, r, u) <= tolerance).then_some(max_iterations)
 }
 
+/// The global Newton method's storage, reused from one solve to the next: every entry is
+/// written before it is read, and the order is kept with the pattern it was computed for.
+#[derive(Default)]
+pub struct NewtonStorage {
+    /// The contacts' fill-reducing order, the pattern it is for, and its scratch.
+    order: Vec<usize>,
+    ordered: BlockPattern,
+    ordering: MinimumDegree,
+    iterates: Iterates,
+}
+
 /// The Newton iterations' vectors and matrices.
 #[derive(Default)]
 struct Iterates {
@@ -253,29 +208,13 @@ struct Iterates {
     /// Φ at the iterate and at the trial.
     phi: DVector<f64>,
     phi_trial: DVector<f64>,
-    /// The Jacobian of Φ, and its factors (formed in the Jacobian's storage).
-    jac: DMatrix<f64>,
-    lu: Lu,
+    /// The Jacobian of Φ, formed in the storage of its factors, and each contact's
+    /// elimination position.
+    factors: BlockLu,
+    position: Vec<usize>,
     /// The Newton step and the trial impulses.
     dr: DVector<f64>,
     trial: DVector<f64>,
-}
-
-/// max |J_ij| over the blocks of `pattern`, where all of J's nonzero entries lie: J's
-/// `amax` without reading its zero blocks.
-fn pattern_amax(j: &DMatrix<f64>, pattern: &BlockPattern) -> f64 {
-    let (m, data) = (j.nrows(), j.as_slice());
-    let mut max = 0.0f64;
-    for a in 0..m / 3 {
-        for &b in pattern.row(a) {
-            for c in 3 * b..3 * b + 3 {
-                for x in &data[c * m + 3 * a..][..3] {
-                    max = max.max(x.abs());
-                }
-            }
-        }
-    }
-    max
 }
 
 /// Proximal-point iterations r ← sol FC3D(W + ηI, q − η r), each
@@ -342,6 +281,7 @@ pub fn proximal_newton(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DMatrix;
 
     /// A solve reads nothing that an earlier one left in its storage: a chain of three
     /// frictional contacts (the first and the last uncoupled, so that the Jacobian has zero
@@ -405,11 +345,12 @@ mod tests {
         }
     }
 
-    /// The Jacobian's largest entry, read over W's block pattern only, is its `amax`: the
-    /// Jacobian has no nonzero entry outside the pattern. W is an arrow: contact 0 is
-    /// coupled to every other, and no other pair is.
+    /// The Jacobian formed in the factors' blocks is ∂Φ/∂r (finite differences of Φ, with
+    /// u = W r + q, at a point where contacts stick, slide and are open), and the step
+    /// solved through the factors is −J⁻¹Φ in the original numbering. W is an arrow:
+    /// contact 0 is coupled to every other, and no other pair is.
     #[test]
-    fn the_jacobian_lies_in_the_pattern() {
+    fn the_factored_jacobian_is_phis_derivative() {
         let n = 5;
         let w = DMatrix::from_fn(3 * n, 3 * n, |i, j| {
             let (a, b) = (i / 3, j / 3);
@@ -422,24 +363,75 @@ mod tests {
             }
         });
         let pattern = BlockPattern::of(&w);
-        let q = DVector::from_fn(3 * n, |i, _| (1.7 * i as f64).sin() - 0.3);
-        let r = DVector::from_fn(3 * n, |i, _| if i % 3 == 0 { 0.5 } else { 0.9 });
-        let mu = [0.3, 0.5, 0.1, 0.8, 0.2];
+        let q = DVector::from_vec(vec![
+            -0.5, 0.01, 0.0, // sticks
+            -0.3, 2.0, -1.0, // slides
+            3.0, 0.2, 0.1, // opens
+            -0.2, 0.4, 0.9, // slides
+            -1.0, 0.0, 0.02, // sticks
+        ]);
+        let r = DVector::from_fn(3 * n, |i, _| if i % 3 == 0 { 0.5 } else { 0.05 });
+        let mu = [0.3, 0.5, 0.1, 0.8, 0.6];
         let p = Fc3d {
             w: &w,
             q: &q,
             mu: &mu,
         };
-        let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.5)).collect();
-        let (mut u, mut phi, mut jac) =
-            (DVector::zeros(0), DVector::zeros(0), DMatrix::zeros(0, 0));
+        let rho: Vec<(f64, f64)> = (0..n).map(|_| (0.5, 0.7)).collect();
+        let phi_at = |r: &DVector<f64>| {
+            let (mut u, mut phi) = (DVector::zeros(0), DVector::zeros(0));
+            pattern.velocity_into(&w, r, &q, &mut u);
+            phi_and_jacobian(&p, &pattern, r, &u, &rho, &mut phi, None);
+            phi
+        };
+        let mut order = Vec::new();
+        pattern.minimum_degree_into(&mut order, &mut MinimumDegree::default());
+        assert_eq!(order, [1, 2, 3, 0, 4], "the hub with one spoke left");
+        let mut position = vec![0; n];
+        for (k, &a) in order.iter().enumerate() {
+            position[a] = k;
+        }
+        let mut factors = BlockLu::default();
+        factors.set_pattern(&pattern, &order);
+        let (mut u, mut phi) = (DVector::zeros(0), DVector::zeros(0));
         pattern.velocity_into(&w, &r, &q, &mut u);
-        phi_and_jacobian(&p, &pattern, &r, &u, &rho, &mut phi, Some(&mut jac));
-        assert!(jac.amax() > 0.1);
-        assert_eq!(pattern_amax(&jac, &pattern), jac.amax());
-        // an entry outside the pattern would be missed: the test can tell
-        let mut outside = jac.clone();
-        outside[(3, 6)] = 10.0 * jac.amax();
-        assert!(pattern_amax(&outside, &pattern) < outside.amax());
+        let jac = Some((&mut factors, &position[..]));
+        phi_and_jacobian(&p, &pattern, &r, &u, &rho, &mut phi, jac);
+        let eps = 1e-6;
+        let mut dense = DMatrix::zeros(3 * n, 3 * n);
+        for j in 0..3 * n {
+            let (mut up, mut down) = (r.clone(), r.clone());
+            up[j] += eps;
+            down[j] -= eps;
+            dense.set_column(j, &((phi_at(&up) - phi_at(&down)) / (2.0 * eps)));
+        }
+        for a in 0..n {
+            for b in 0..n {
+                let fd = dense.fixed_view::<3, 3>(3 * a, 3 * b);
+                if pattern.coupled(a, b) {
+                    let formed = *factors.block_mut(position[a], position[b]);
+                    assert!(
+                        (formed - fd).amax() < 1e-8,
+                        "block ({a}, {b}): {formed} {fd}"
+                    );
+                } else {
+                    assert_eq!(fd.amax(), 0.0, "block ({a}, {b}) outside the pattern");
+                }
+            }
+        }
+        assert!(dense.amax() > 0.1);
+        let expected = -dense.clone().lu().solve(&phi).expect("regular");
+        assert!(factors.factorise(0.0));
+        let mut step: Vec<f64> = order
+            .iter()
+            .flat_map(|&a| [-phi[3 * a], -phi[3 * a + 1], -phi[3 * a + 2]])
+            .collect();
+        factors.solve_in_place(&mut step);
+        for (k, &a) in order.iter().enumerate() {
+            for c in 0..3 {
+                let e = expected[3 * a + c];
+                assert!((step[3 * k + c] - e).abs() < 1e-5 * expected.amax(), "{a}");
+            }
+        }
     }
 }

@@ -82,6 +82,11 @@ impl BlockPattern {
         start.push(columns.len());
     }
 
+    /// Whether blocks (a, b) and (b, a) may be nonzero.
+    pub fn coupled(&self, a: usize, b: usize) -> bool {
+        self.coupled[a * self.n + b]
+    }
+
     /// The blocks b of row a that may be nonzero, ascending.
     pub fn row(&self, a: usize) -> &[usize] {
         &self.columns[self.start[a]..self.start[a + 1]]
