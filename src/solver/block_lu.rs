@@ -20,13 +20,13 @@ const NONE: usize = usize::MAX;
 #[derive(Clone, Debug, Default)]
 pub struct BlockLu {
     n: usize,
-    /// The original pattern in elimination positions, filled in; the input `set_pattern`
-    /// saw last, to skip the symbolic work when it has not changed.
+    /// The pattern in elimination positions, filled in.
     filled: Vec<bool>,
-    seen: Vec<bool>,
     /// Where block (k, l) is stored in `blocks`, or `NONE`.
     slot: Vec<usize>,
     blocks: Vec<Matrix3<f64>>,
+    /// The slots of the blocks that elimination fills in.
+    fill: Vec<usize>,
     /// Below the diagonal in column k, and right of it in row k: `(place, slot)`.
     lower: Vec<Vec<(usize, usize)>>,
     upper: Vec<Vec<(usize, usize)>>,
@@ -39,23 +39,11 @@ impl BlockLu {
     /// eliminated in `order` (contact `order[k]` at step k); every block reads zero.
     pub fn set_pattern(&mut self, pattern: &BlockPattern, order: &[usize]) {
         let n = order.len();
-        let unchanged = self.n == n
-            && self.seen.len() == n * n
-            && (0..n * n).all(|kl| self.seen[kl] == pattern.coupled(order[kl / n], order[kl % n]));
-        if !unchanged {
-            self.symbolic(pattern, order);
-        }
-        self.blocks.iter_mut().for_each(|b| b.fill(0.0));
-    }
-
-    /// The filled pattern, its slots and the lists of each step's blocks.
-    fn symbolic(&mut self, pattern: &BlockPattern, order: &[usize]) {
-        let n = order.len();
         self.n = n;
-        self.seen.clear();
-        self.seen
+        self.filled.clear();
+        self.filled
             .extend((0..n * n).map(|kl| pattern.coupled(order[kl / n], order[kl % n])));
-        self.filled.clone_from(&self.seen);
+        self.fill.clear();
         let filled = &mut self.filled;
         for k in 0..n {
             // eliminating k couples every pair of its later neighbours
@@ -75,6 +63,9 @@ impl BlockLu {
         for (kl, &f) in self.filled.iter().enumerate() {
             if f {
                 self.slot[kl] = count;
+                if !pattern.coupled(order[kl / n], order[kl % n]) {
+                    self.fill.push(count);
+                }
                 count += 1;
             }
         }
@@ -96,6 +87,14 @@ impl BlockLu {
         }
         self.pivots.clear();
         self.pivots.resize(n, Matrix3::zeros());
+    }
+
+    /// Sets the blocks that elimination fills in to zero, for the next matrix of the same
+    /// pattern, whose every block of `pattern` the caller writes.
+    pub fn clear_fill(&mut self) {
+        for &s in &self.fill {
+            self.blocks[s].fill(0.0);
+        }
     }
 
     /// Block (k, l), which must lie in the pattern.

@@ -143,10 +143,11 @@ pub fn solve_fc3d(
             coupled.pattern_into(n, pattern);
             if let Some(it) = global_newton(p, pattern, trial, opts.tolerance, 100, newton) {
                 r.copy_from(trial);
+                local_velocity(p, r, blocks, coupled, u);
                 return SolverStatus {
                     converged: true,
                     iterations: sweep + it,
-                    residual: natural_map_error(p, r),
+                    residual: natural_map_error_at(p, r, u),
                 };
             }
         }
