@@ -1,6 +1,6 @@
-//! LU factorisation with partial pivoting for the contact and projection problems, whose
-//! matrices are block-sparse: a contact's rows couple only to the contacts that share one
-//! of its two bodies. It performs nalgebra's `LU` arithmetic operation for operation (the
+//! LU factorisation with partial pivoting for `mlcp`'s equality systems (the joints' rows
+//! and the position projection), whose matrices are block-sparse: a row couples only to
+//! the rows that share one of its bodies. It performs nalgebra's `LU` arithmetic operation for operation (the
 //! same pivots, the multipliers scaled by the pivot's reciprocal, the same updates in the
 //! same order), so its factors and solutions are bit-identical to nalgebra's; it skips the
 //! updates whose multiplier or pivot-row entry is zero, which leave an entry unchanged, and
@@ -42,20 +42,6 @@ impl Lu {
         self.n = a.nrows();
         self.lu.clear();
         self.lu.extend_from_slice(a.as_slice());
-        self.shift_and_factorise(shift);
-    }
-
-    /// Factorises `a` with `shift` added to its diagonal in `a`'s own storage, which it
-    /// takes; `a` is left empty, holding the storage of the factors it replaces, for the
-    /// caller to form its next matrix in. Nothing is copied.
-    pub fn refactor_taking(&mut self, a: &mut DMatrix<f64>, shift: f64) {
-        assert!(a.is_square(), "LU of a non-square matrix");
-        self.n = a.nrows();
-        let mut spare = std::mem::take(&mut self.lu);
-        spare.clear();
-        self.lu = std::mem::replace(a, DMatrix::from_vec(0, 0, spare))
-            .data
-            .into();
         self.shift_and_factorise(shift);
     }
 
@@ -275,26 +261,6 @@ mod tests {
                     assert!((&a * &x - &b).amax() < 1e-8 * x.amax().max(1.0), "n = {n}");
                 }
             }
-        }
-    }
-
-    /// Factorising a matrix in its own storage, with a shift, gives the factors of the
-    /// shifted matrix bit for bit, whatever the factors held before; the matrix is left
-    /// empty.
-    #[test]
-    fn factors_formed_in_the_matrix_storage_are_the_same() {
-        let shift = 0.25;
-        let mut held = Lu::new(blocky(7, 9, |_, _| true));
-        for (seed, blocks) in [(2, 5), (3, 11), (4, 5)] {
-            let a = blocky(blocks, seed, |a: usize, b: usize| a.abs_diff(b) <= 1);
-            let b = DVector::from_fn(a.nrows(), |i, _| (i as f64 * 0.61).cos());
-            let mut shifted = a.clone();
-            shifted.set_diagonal(&a.diagonal().add_scalar(shift));
-            let expected = Lu::new(shifted).solve(&b).expect("regular");
-            let mut taken = a.clone();
-            held.refactor_taking(&mut taken, shift);
-            assert_eq!(taken.shape(), (0, 0));
-            assert_eq!(bits(&held.solve(&b).expect("regular")), bits(&expected));
         }
     }
 

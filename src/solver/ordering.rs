@@ -110,17 +110,6 @@ impl BlockPattern {
         }
     }
 
-    /// Into `out`, the pattern of the problem whose contact k is contact `order[k]` of
-    /// this one.
-    pub fn permuted_into(&self, order: &[usize], out: &mut BlockPattern) {
-        let n = self.n;
-        out.n = n;
-        out.coupled.clear();
-        out.coupled
-            .extend((0..n * n).map(|kl| self.coupled[order[kl / n] * n + order[kl % n]]));
-        out.list_rows();
-    }
-
     /// Into `order`, a fill-reducing elimination order of the contacts, by minimum degree:
     /// at each step the contact with the fewest neighbours left (the lowest index on a tie)
     /// goes next, and its neighbours become coupled, as its elimination couples them.
@@ -245,14 +234,9 @@ mod tests {
         for k in 0..3 * n {
             assert!((xp[k] - x[index(k)]).abs() < 1e-12);
         }
-        // the pattern of the permuted matrix is the permuted pattern, and products over it
-        // are W r + q
-        // (each formed in the storage of a pattern of another size)
-        let mut permuted = BlockPattern::of(&arrow(n + 2));
-        BlockPattern::of(&w).permuted_into(&order, &mut permuted);
-        assert_eq!(BlockPattern::of(&wp), permuted);
-        // and the pattern of the arrow's off-diagonal pairs (hub–spoke, either way round) is
-        // the pattern read from W
+        // the pattern of the arrow's off-diagonal pairs (hub–spoke, either way round) is
+        // the pattern read from W (also when formed in the storage of a larger one), and
+        // products over it are W r + q
         let spokes = (1..n).flat_map(|a| [(0, a), (a, 0)]);
         assert_eq!(
             BlockPattern::of_pairs(n, spokes.clone()),
