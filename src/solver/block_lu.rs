@@ -174,26 +174,12 @@ mod tests {
     use crate::solver::ordering::MinimumDegree;
     use nalgebra::{DMatrix, DVector};
 
-    /// A deterministic pseudo-random matrix of 3×3 blocks, nonzero on the diagonal and where
-    /// `coupled(a, b)`, its diagonal strong enough for elimination without pivoting.
+    /// `lu`'s pseudo-random block matrix, its pattern symmetrised and its diagonal made
+    /// strong enough for elimination without pivoting.
     fn blocky(blocks: usize, seed: u64, coupled: impl Fn(usize, usize) -> bool) -> DMatrix<f64> {
-        let mut state = seed;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
-        let n = 3 * blocks;
-        let mut m = DMatrix::from_fn(n, n, |r, c| {
-            let (a, b) = (r / 3, c / 3);
-            if a == b || coupled(a, b) || coupled(b, a) {
-                next()
-            } else {
-                0.0
-            }
-        });
-        for i in 0..n {
+        let symmetric = |a, b| coupled(a, b) || coupled(b, a);
+        let mut m = crate::solver::lu::tests::blocky(blocks, seed, symmetric);
+        for i in 0..3 * blocks {
             m[(i, i)] += 3.0;
         }
         m

@@ -179,12 +179,16 @@ fn solve(lu: &[f64], swaps: &[(usize, usize)], b: &mut [f64], n: usize) -> bool 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A deterministic pseudo-random matrix with the block pattern of a contact problem:
     /// 3×3 blocks, nonzero on the diagonal and where `coupled(a, b)`.
-    fn blocky(blocks: usize, seed: u64, coupled: impl Fn(usize, usize) -> bool) -> DMatrix<f64> {
+    pub(crate) fn blocky(
+        blocks: usize,
+        seed: u64,
+        coupled: impl Fn(usize, usize) -> bool,
+    ) -> DMatrix<f64> {
         let mut state = seed;
         let mut next = move || {
             state = state

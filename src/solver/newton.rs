@@ -116,17 +116,17 @@ pub fn global_newton(
                 trial,
             },
     } = storage;
-    // the order and the factors' pattern are functions of W's pattern alone: formed again
-    // when it changed
+    // the order, each contact's place in it and the factors' pattern are functions of W's
+    // pattern alone: formed again when it changed
     if ordered != pattern {
         pattern.minimum_degree_into(order, ordering);
         ordered.clone_from(pattern);
         factors.set_pattern(pattern, order);
-    }
-    position.clear();
-    position.resize(order.len(), 0);
-    for (k, &a) in order.iter().enumerate() {
-        position[a] = k;
+        position.clear();
+        position.resize(order.len(), 0);
+        for (k, &a) in order.iter().enumerate() {
+            position[a] = k;
+        }
     }
     let n = p.mu.len();
     rho.clear();
@@ -213,7 +213,7 @@ struct Iterates {
     phi: DVector<f64>,
     phi_trial: DVector<f64>,
     /// The Jacobian of Φ, formed in the storage of its factors, and each contact's
-    /// elimination position.
+    /// elimination position (kept with `order`).
     factors: BlockLu,
     position: Vec<usize>,
     /// The Newton step and the trial impulses.
