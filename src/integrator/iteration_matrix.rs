@@ -39,6 +39,17 @@ enum Group {
     },
 }
 
+/// The inverse of `$m` (N × N) by the same LU as a dynamic matrix's, in fixed-size
+/// storage: a coupled group of two to four bodies is inverted at every assembly, and the
+/// dynamic LU allocates and checks its bounds at every entry.
+macro_rules! inverse_fixed {
+    ($m:expr, $n:literal) => {{
+        let fixed = SMatrix::<f64, $n, $n>::from_fn(|i, j| $m[(i, j)]);
+        let inverse = fixed.lu().try_inverse();
+        inverse.map(|inverse| DMatrix::from_fn($n, $n, |i, j| inverse[(i, j)]))
+    }};
+}
+
 /// The inverse of a coupled group's W (6 rows per body), NaN where W is singular. Torsional
 /// springs and dampers couple only the bodies' rotations: then each body's translation
 /// block stands alone (inverted in closed form) and only the 3k × 3k rotation part needs a
@@ -60,7 +71,13 @@ fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
     }
     let rot = |i: usize| 6 * (i / 3) + 3 + i % 3;
     let r = DMatrix::from_fn(3 * bodies, 3 * bodies, |i, j| w[(rot(i), rot(j))]);
-    let Some(r_inv) = r.lu().try_inverse() else {
+    let r_inv = match bodies {
+        2 => inverse_fixed!(r, 6),
+        3 => inverse_fixed!(r, 9),
+        4 => inverse_fixed!(r, 12),
+        _ => r.lu().try_inverse(),
+    };
+    let Some(r_inv) = r_inv else {
         return nan();
     };
     let mut inv = DMatrix::zeros(n, n);
@@ -666,6 +683,18 @@ mod tests {
                 "mixed {mixed}"
             );
         }
+        // the fixed-size LU of two to four bodies' rotations is the dynamic one, bit for bit
+        let rotations = |bodies: usize| {
+            let w = w_like(bodies, false);
+            let rot = |i: usize| 6 * (i / 3) + 3 + i % 3;
+            DMatrix::from_fn(3 * bodies, 3 * bodies, |i, j| w[(rot(i), rot(j))])
+        };
+        let dynamic = |r: &DMatrix<f64>| r.clone().lu().try_inverse();
+        let (r2, r3, r4) = (rotations(2), rotations(3), rotations(4));
+        assert_eq!(inverse_fixed!(r2, 6), dynamic(&r2));
+        assert_eq!(inverse_fixed!(r3, 9), dynamic(&r3));
+        assert_eq!(inverse_fixed!(r4, 12), dynamic(&r4));
+        assert!(dynamic(&r4).is_some());
         assert!(inverse_coupled(DMatrix::zeros(12, 12))[(0, 0)].is_nan());
         assert!(inverse6(&Matrix6::zeros())[(0, 0)].is_nan());
     }
