@@ -220,16 +220,7 @@ mod tests {
     /// or a block dropped from the fill.
     #[test]
     fn solves_block_sparse_systems() {
-        type Pattern<'a> = (&'a str, &'a dyn Fn(usize, usize) -> bool);
-        let patterns: [Pattern; 4] = [
-            ("dense", &|_, _| true),
-            ("chain", &|a: usize, b: usize| a.abs_diff(b) == 1),
-            ("arrow", &|a: usize, b: usize| a == 0 || b == 0),
-            ("sparse", &|a: usize, b: usize| {
-                (a * 7 + b * 3).is_multiple_of(5)
-            }),
-        ];
-        for (name, coupled) in patterns {
+        for (name, coupled) in crate::solver::lu::tests::PATTERNS {
             for seed in 1..12 {
                 let a = blocky(13, seed, coupled);
                 let b = DVector::from_fn(a.nrows(), |i, _| (i as f64 * 0.37).sin());

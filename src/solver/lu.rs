@@ -210,19 +210,22 @@ pub(crate) mod tests {
         v.iter().map(|x| x.to_bits()).collect()
     }
 
+    /// Whether block (a, b) of a `blocky` matrix is filled.
+    pub(crate) type Coupled = fn(usize, usize) -> bool;
+
+    /// Block patterns of contact problems, by name.
+    pub(crate) const PATTERNS: [(&str, Coupled); 4] = [
+        ("dense", |_, _| true),
+        ("chain", |a, b| a.abs_diff(b) == 1),
+        ("arrow", |a, b| a == 0 || b == 0),
+        ("sparse", |a, b| (a * 7 + b * 3).is_multiple_of(5)),
+    ];
+
     /// The factors' solutions are nalgebra's bit for bit, on dense and block-sparse
     /// matrices (whose updates it skips), and they solve the system.
     #[test]
     fn solutions_are_nalgebras_bit_for_bit() {
-        type Pattern<'a> = (&'a str, &'a dyn Fn(usize, usize) -> bool);
-        let patterns: [Pattern; 3] = [
-            ("dense", &|_, _| true),
-            ("chain", &|a: usize, b: usize| a.abs_diff(b) == 1),
-            ("sparse", &|a: usize, b: usize| {
-                (a * 7 + b * 3).is_multiple_of(5)
-            }),
-        ];
-        for (name, coupled) in patterns {
+        for (name, coupled) in PATTERNS {
             for seed in 1..20 {
                 let a = blocky(19, seed, coupled);
                 let b = DVector::from_fn(a.nrows(), |i, _| (i as f64 * 0.37).sin());
