@@ -69,15 +69,7 @@ fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
     if !separable {
         return w.lu().try_inverse().unwrap_or_else(nan);
     }
-    let rot = |i: usize| 6 * (i / 3) + 3 + i % 3;
-    let r = DMatrix::from_fn(3 * bodies, 3 * bodies, |i, j| w[(rot(i), rot(j))]);
-    let r_inv = match bodies {
-        2 => inverse_fixed!(r, 6),
-        3 => inverse_fixed!(r, 9),
-        4 => inverse_fixed!(r, 12),
-        _ => r.lu().try_inverse(),
-    };
-    let Some(r_inv) = r_inv else {
+    let Some(r_inv) = inverse_rotations(rotation_part(&w)) else {
         return nan();
     };
     let mut inv = DMatrix::zeros(n, n);
@@ -90,10 +82,31 @@ fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
     }
     for i in 0..3 * bodies {
         for j in 0..3 * bodies {
-            inv[(rot(i), rot(j))] = r_inv[(i, j)];
+            inv[(rotation_row(i), rotation_row(j))] = r_inv[(i, j)];
         }
     }
     inv
+}
+
+/// The row of a group's W (6 per body) that holds row `i` of its rotation part (3 per body).
+fn rotation_row(i: usize) -> usize {
+    6 * (i / 3) + 3 + i % 3
+}
+
+/// The 3k × 3k rotation part of a group's W.
+fn rotation_part(w: &DMatrix<f64>) -> DMatrix<f64> {
+    let k = 3 * (w.nrows() / 6);
+    DMatrix::from_fn(k, k, |i, j| w[(rotation_row(i), rotation_row(j))])
+}
+
+/// The inverse of a rotation part by LU, in fixed-size storage for two to four bodies.
+fn inverse_rotations(r: DMatrix<f64>) -> Option<DMatrix<f64>> {
+    match r.nrows() / 3 {
+        2 => inverse_fixed!(r, 6),
+        3 => inverse_fixed!(r, 9),
+        4 => inverse_fixed!(r, 12),
+        _ => r.lu().try_inverse(),
+    }
 }
 
 /// The inverse of a block of W, NaN where W is singular (reported downstream as a
@@ -684,17 +697,12 @@ mod tests {
             );
         }
         // the fixed-size LU of two to four bodies' rotations is the dynamic one, bit for bit
-        let rotations = |bodies: usize| {
-            let w = w_like(bodies, false);
-            let rot = |i: usize| 6 * (i / 3) + 3 + i % 3;
-            DMatrix::from_fn(3 * bodies, 3 * bodies, |i, j| w[(rot(i), rot(j))])
-        };
-        let dynamic = |r: &DMatrix<f64>| r.clone().lu().try_inverse();
-        let (r2, r3, r4) = (rotations(2), rotations(3), rotations(4));
-        assert_eq!(inverse_fixed!(r2, 6), dynamic(&r2));
-        assert_eq!(inverse_fixed!(r3, 9), dynamic(&r3));
-        assert_eq!(inverse_fixed!(r4, 12), dynamic(&r4));
-        assert!(dynamic(&r4).is_some());
+        for bodies in 2..=4 {
+            let r = rotation_part(&w_like(bodies, false));
+            let dynamic = r.clone().lu().try_inverse();
+            assert!(dynamic.is_some(), "{bodies} bodies");
+            assert_eq!(inverse_rotations(r), dynamic, "{bodies} bodies");
+        }
         assert!(inverse_coupled(DMatrix::zeros(12, 12))[(0, 0)].is_nan());
         assert!(inverse6(&Matrix6::zeros())[(0, 0)].is_nan());
     }
