@@ -179,6 +179,19 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     // the CSV: a header and one line per run and output
     let csv = conv.csv();
     assert_eq!(csv.lines().count(), 1 + 6 * 3 * conv.outputs.len());
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",wall_ms,steps,error"));
+    // each run's steps: at a fixed step, the run's length over h (the same length at every
+    // rung, within a step or two where it stops once its outputs are known)
+    let length = |f: usize| conv.steps(f) as f64 * conv.fidelities[f].h;
+    let reference = length(conv.fidelities.len() - 1);
+    for f in 0..5 {
+        let ratio = length(f) / reference;
+        assert!((ratio - 1.0).abs() < 0.01, "rung {f}: {ratio}");
+    }
     // with the adaptive rungs: their impact times are within 1e-8 relative of the
     // reference (the step shrinks at the impact), and they share the plot as triangles
     ladder.fidelities.extend(adaptive_rungs);
@@ -195,6 +208,17 @@ fn step_size_ladder_converges_on_the_bouncing_ball() {
     // recommendation weighs, are no test's business)
     for f in 5..8 {
         assert!(conv.error(f, k) < conv.error(4, k) / 10.0);
+    }
+    // and in at most half the steps of the study's own fixed step (1e-4 s, rung 3): the
+    // steps grow in flight and shrink at the impacts only
+    for f in 5..8 {
+        assert!(
+            2 * conv.steps(f) <= conv.steps(3),
+            "{}: {} steps against {}",
+            conv.fidelities[f].label(),
+            conv.steps(f),
+            conv.steps(3)
+        );
     }
     let fig = mc_study::report::work_precision(&conv, target);
     assert!(fig
@@ -344,6 +368,7 @@ fn a_drift_must_be_large_against_sigma_and_failures_say_why() {
     let fid = |h: f64| Fidelity { h, ..base.clone() };
     let run = |y: f64| Run {
         outputs: vec![y],
+        steps: 10,
         wall_ms: 1.0,
         error: None,
     };
@@ -360,6 +385,7 @@ fn a_drift_must_be_large_against_sigma_and_failures_say_why() {
                     run(1.0001),
                     Run {
                         outputs: vec![f64::NAN],
+                        steps: 3,
                         wall_ms: 1.0,
                         error: Some("steps did not converge (3 of 40)\ndetail".into()),
                     },

@@ -306,10 +306,13 @@ pub struct Drift {
     pub to: (f64, f64),
 }
 
-/// One run: outputs (NaN where failed), wall time and the failure, if any.
+/// One run: outputs (NaN where failed), its steps, wall time and the failure, if any.
 #[derive(Clone, Debug)]
 pub struct Run {
     pub outputs: Vec<f64>,
+    /// Steps taken: the cost of a fidelity that does not depend on the machine or on
+    /// how many runs share it.
+    pub steps: u64,
     pub wall_ms: f64,
     pub error: Option<String>,
 }
@@ -390,6 +393,7 @@ pub fn sweep(
             let o = subjects[f].run(params, &selected);
             let run = Run {
                 outputs: o.outputs,
+                steps: o.diagnostics.steps,
                 wall_ms: o.diagnostics.wall_ms,
                 error: o.error,
             };
@@ -484,6 +488,13 @@ impl Convergence {
         let mut w: Vec<f64> = self.runs[f].iter().map(|r| r.wall_ms).collect();
         w.sort_by(f64::total_cmp);
         w[w.len() / 2]
+    }
+
+    /// Median steps per sample at fidelity f.
+    pub fn steps(&self, f: usize) -> u64 {
+        let mut n: Vec<u64> = self.runs[f].iter().map(|r| r.steps).collect();
+        n.sort_unstable();
+        n[n.len() / 2]
     }
 
     /// The cheapest fidelity (not the reference) whose error on every output that
@@ -586,7 +597,8 @@ impl Convergence {
             .collect()
     }
 
-    /// The printed table: one row per fidelity, its cost and each output's error.
+    /// The printed table: one row per fidelity, its cost (time and steps a sample) and each
+    /// output's error.
     fn table(&self) -> String {
         let unit = if self.sigma.is_some() {
             "error / Monte-Carlo σ (max over samples)"
@@ -599,7 +611,7 @@ impl Convergence {
             "{unit}; reference: {}",
             self.fidelities.last().unwrap().label()
         );
-        let _ = write!(s, "{:<72} {:>10}", "fidelity", "ms/sample");
+        let _ = write!(s, "{:<72} {:>10} {:>8}", "fidelity", "ms/sample", "steps");
         for (name, _) in &self.outputs {
             let _ = write!(s, " {:>12}", short(name));
         }
@@ -607,9 +619,10 @@ impl Convergence {
         for f in 0..self.fidelities.len() {
             let _ = write!(
                 s,
-                "{:<72} {:>10.1}",
+                "{:<72} {:>10.1} {:>8}",
                 self.fidelities[f].label(),
-                self.cost(f)
+                self.cost(f),
+                self.steps(f)
             );
             for k in 0..self.outputs.len() {
                 if f + 1 == self.fidelities.len() {
@@ -628,10 +641,10 @@ impl Convergence {
         s
     }
 
-    /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms.
+    /// Every run as CSV: fidelity, sample, output, value, reference, error, wall ms, steps.
     pub fn csv(&self) -> String {
         let mut s = String::from(
-            "h,step_tolerance,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,extrapolate,preset,sample,output,unit,value,reference,abs_error,wall_ms,error\n",
+            "h,step_tolerance,scheme,theta,solver_tolerance,projection_tolerance,locate_impacts,extrapolate,preset,sample,output,unit,value,reference,abs_error,wall_ms,steps,error\n",
         );
         let reference = self.reference();
         for (f, fid) in self.fidelities.iter().enumerate() {
@@ -640,7 +653,7 @@ impl Convergence {
                     let (y, y0) = (run.outputs[k], reference[j].outputs[k]);
                     let _ = writeln!(
                         s,
-                        "{:e},{},{},{},{:e},{:e},{},{},{},{},{},{},{:e},{:e},{:e},{:.3},{}",
+                        "{:e},{},{},{},{:e},{:e},{},{},{},{},{},{},{:e},{:e},{:e},{:.3},{},{}",
                         fid.h,
                         fid.step_control
                             .as_ref()
@@ -659,6 +672,7 @@ impl Convergence {
                         y0,
                         (y - y0).abs(),
                         run.wall_ms,
+                        run.steps,
                         run.error.as_deref().unwrap_or("").replace([',', '\n'], ";")
                     );
                 }
