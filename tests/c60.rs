@@ -3,6 +3,8 @@
 //! the step; the clearance model tends to the ideal mechanism as the clearances vanish; the
 //! ±3σ clearance extremes run through.
 
+mod common;
+
 use mc_study::study::sample_run::{Outcome, Subject};
 use std::path::Path;
 
@@ -136,10 +138,10 @@ fn latched_state_does_not_depend_on_the_step() {
 /// the scene's steps with the solver at 1e-8 (the convergence study's reference tolerance:
 /// this checks the model, not the solver), and the 1 nm outputs are the mean over six
 /// perturbations of every step by k·1e-6, k = 0…5 (measured: the trip and opening times
-/// 2.4e-5 and 1.4e-4 from the ideal's, the tripping force 6.6e-4). The geometric FCs
+/// 1.4e-6 and 1.2e-4 from the ideal's, the tripping force 6.3e-4). The geometric FCs
 /// converge at first order (asserted: at least 50-fold per 100-fold in c; 100-fold twice
 /// measured), FC-1 noisily (asserted 2-fold at 100 nm and 100-fold over both decades;
-/// 3.5-fold and 660-fold measured): the small journals chatter
+/// 8.6-fold and 390-fold measured): the small journals chatter
 /// without friction, and the main contact's force with them. At the nominal 0.07 mm FC-1
 /// and FC-4 differ by percents: the comparison resolves the clearance effect it checks.
 #[test]
@@ -158,11 +160,12 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
     let perturbed = |k: usize| {
         let scale = 1.0 + k as f64 * 1e-6;
         let t = text
-            .replace("\n  h: 5 us\n", &format!("\n  h: {} us\n", 5.0 * scale))
+            .replace("\n  h: 4 us\n", &format!("\n  h: {} us\n", 4.0 * scale))
             .replace(
-                "for: 1.3 ms, h: 1 us",
-                &format!("for: 1.3 ms, h: {} us", scale),
-            );
+                "for: 1.3 ms, h: 1 us,",
+                &format!("for: 1.3 ms, h: {} us,", scale),
+            )
+            .replace("approach: 20 us", &format!("approach: {} us", 20.0 * scale));
         assert!(
             k == 0 || t != text,
             "the scene's steps changed: update this test"
@@ -254,7 +257,7 @@ fn vanishing_clearances_give_the_ideal_mechanism() {
 #[test]
 fn a_strike_at_the_end_of_a_step_keeps_its_impulse_in_the_tripping_force() {
     let text = scene_text();
-    let approach_at_1us = text.replace("\n  h: 5 us\n", "\n  h: 1 us\n");
+    let approach_at_1us = text.replace("approach: 20 us", "approach: 1 us");
     assert_ne!(approach_at_1us, text);
     let sample_32 = [
         6.541709118960449e-05,
@@ -279,7 +282,7 @@ fn a_strike_at_the_end_of_a_step_keeps_its_impulse_in_the_tripping_force() {
         output(&at_1us, &names, "tripping_force"),
         output(&default, &names, "tripping_force"),
     );
-    println!("strike at {strike} s; tripping force {f1} N (approach at 1 µs), {f5} N (5 µs)");
+    println!("strike at {strike} s; tripping force {f1} N (approach at 1 µs), {f5} N (20 µs)");
     assert!((f1 / f5 - 1.0).abs() < 2e-3, "{f1} N against {f5} N");
 }
 
@@ -304,7 +307,8 @@ fn three_sigma_clearances_run_through() {
 /// `converge`'s samples (the nominal and the first three of the design) against its
 /// reference (fixed steps of 0.5 µs, a 0.1 µs window, solver 1e-8): every output within
 /// 1 % of its Monte-Carlo σ (the 512-sample study's, studies/c60/README.md), no penetration
-/// beyond the projection tolerance, and fewer steps than the fixed default.
+/// beyond the projection tolerance, and at most 1.5 times the fixed default's steps (2371
+/// against 1969 measured: the trip's events keep the controlled steps short).
 #[test]
 fn the_adaptive_study_is_within_one_percent_of_sigma_on_converges_samples() {
     use mc_study::study::converge::{sweep, Ladder};
@@ -327,10 +331,17 @@ fn the_adaptive_study_is_within_one_percent_of_sigma_on_converges_samples() {
         let e = conv.error(0, k);
         assert!(e < 0.01, "{name}: {:.2} % of σ", 100.0 * e);
     }
-    // the nominal sample's steps: fewer than the fixed default's 4000
+    // the nominal sample's steps against the fixed default's
     let mut sim = scene.simulation().unwrap();
     sim.run_until(8e-3, |_, _| {}).unwrap();
-    assert!(sim.stats.steps < 3000, "{} steps", sim.stats.steps);
+    let mut fixed = common::simulation(common::bundled("c60"));
+    fixed.run_until(8e-3, |_, _| {}).unwrap();
+    assert!(
+        sim.stats.steps as f64 <= 1.5 * fixed.stats.steps as f64,
+        "{} steps against {}",
+        sim.stats.steps,
+        fixed.stats.steps
+    );
     assert!(
         sim.stats.max_penetration < 1e-9,
         "{:e}",

@@ -171,3 +171,43 @@ fn a_window_with_until_closes_at_its_event() {
         "window           h = 1e-4 s from t = {impact_end:.6} s to {window_end:.6} s"
     )));
 }
+
+/// With `approach`, the steps before the window opens are the approach's: 5 ms up to the
+/// end of the step in which the floor first carries an impulse (within two approach steps
+/// of the impact at t₁, which the forecast activates a step late or not), then the
+/// window's 0.1 ms for 50 ms, then h. The approach's step is a ratio of h too: at
+/// h = 0.5 ms it is 2.5 ms.
+#[test]
+fn the_approach_takes_its_own_step_until_the_window_opens() {
+    let refine = "refine: { after: floor, for: 50 ms, h: 0.1 ms, approach: 5 ms }";
+    let t1 = (2.0 * 0.9 / 9.81f64).sqrt();
+    for h in [1e-3, 0.5e-3] {
+        let approach = 5.0 * h;
+        let taken = steps(&mut ball(refine, h));
+        let opened = taken
+            .iter()
+            .find(|&&(_, d)| d < 0.5 * approach)
+            .map(|&(t, _)| t)
+            .expect("the window opens");
+        assert!(
+            opened > t1 && opened < t1 + 2.0 * approach,
+            "h = {h}: the window opened at {opened}, the impact is at {t1}"
+        );
+        let window_end = opened + 0.05;
+        for &(t, d) in &taken {
+            let expected = if t < opened - 1e-9 {
+                approach
+            } else if t < window_end - 1e-9 {
+                0.1 * h
+            } else {
+                h
+            };
+            assert!(
+                (d - expected).abs() < 1e-9 * h,
+                "h = {h}: step at t = {t}: {d}, expected {expected} (window {opened} to {window_end})"
+            );
+        }
+        let coarse = taken.iter().filter(|&&(t, _)| t < opened - 1e-9).count();
+        assert_eq!(coarse, (opened / approach).round() as usize);
+    }
+}

@@ -255,7 +255,8 @@ mod cli {
                 .collect::<Vec<_>>()
                 .join(" ")
         };
-        assert_eq!(value("integrator.h"), "5e-6");
+        assert_eq!(value("integrator.h"), "4e-6");
+        assert_eq!(value("refine.approach"), "2e-5");
         assert_eq!(value("integrator.theta"), "(0.5)");
         assert_eq!(value("integrator.newton.tolerance"), "(1e-10)");
         assert_eq!(value("joints.J1.rim_points"), "(4)");

@@ -37,6 +37,10 @@ pub struct Refine {
     /// The window's step over the integrator's h: a ratio, so that a fidelity that changes
     /// h refines the window with it.
     pub step_ratio: f64,
+    /// The step over the integrator's h from the settle's end until the window opens
+    /// (`None`: h). An approach with the mechanism at rest (an actuator in free flight
+    /// towards it) needs a coarser step than the swing after the window.
+    pub approach_ratio: Option<f64>,
     /// Whether runs with probes take the window twice, at its step and at half of it, and
     /// report each probe as 2 f(h/2) − f(h) (`probe::run`): Richardson extrapolation, which
     /// removes the first-order error that the window's sliding contacts leave.

@@ -205,6 +205,9 @@ pub struct Simulation {
     /// The refinement window (`Schedule::refine`), its start and end, once its contact has
     /// closed.
     pub(super) refine_window: Option<(f64, f64)>,
+    /// The instants at which a prescribed load bends in time (`Model::knots`): a step ends
+    /// at each.
+    knots: Vec<f64>,
     /// The poses at which every clearance joint's `check` last passed (a step's end): the
     /// next step starts from them and need not check them again.
     pub(super) checked_poses: Vec<Pose>,
@@ -282,6 +285,7 @@ impl Simulation {
             t0: state.t,
             n0: 0,
             refine_window: None,
+            knots: model.knots(),
             checked_poses: Vec::new(),
             compliant_onset: vec![None; model.compliant_points()],
             compliant: Vec::new(),
@@ -434,7 +438,24 @@ impl Simulation {
     ///
     /// Under step control, the controller's step, cut to end at the settle's end; the
     /// refinement window, a fixed refinement of the step, does not apply.
+    ///
+    /// Either way a step ends at the next knot of the loads in time (`Model::knots`).
+    #[inline]
     pub(super) fn next_step(&self) -> (f64, Option<f64>) {
+        let (h, ends_at) = self.phase_step();
+        // a knot of the loads in time ends the step at it; one within 1e-9 h of the step's
+        // start counts as passed
+        let t = self.state.t;
+        let next = self.knots.partition_point(|&k| k <= t + 1e-9 * h);
+        match self.knots.get(next) {
+            Some(&knot) if knot - t < h * (1.0 - 1e-9) => (knot - t, Some(knot)),
+            _ => (h, ends_at),
+        }
+    }
+
+    /// The step that starts now by the run's phases alone (`next_step`).
+    #[inline]
+    fn phase_step(&self) -> (f64, Option<f64>) {
         let t = self.state.t;
         let settle = self.schedule.settling(t);
         if let Some(c) = &self.control {
@@ -449,9 +470,15 @@ impl Simulation {
             .zip(self.schedule.refine.as_ref())
             .map(|(until, r)| (until, r.step_ratio * self.params.h))
             .filter(|&(until, h)| t < until - 1e-9 * h);
+        // after the settle and before the window opens, its approach step, if it has one
+        let approach = match (settle, &self.schedule.refine, self.refine_window) {
+            (None, Some(r), None) => r.approach_ratio.map(|a| (f64::INFINITY, a * self.params.h)),
+            _ => None,
+        };
         match settle
             .and_then(|s| s.step_ratio.map(|r| (s.until, r * self.params.h)))
             .or(window)
+            .or(approach)
         {
             Some((until, h)) if until - t <= h * (1.0 + 1e-9) => (until - t, Some(until)),
             Some((_, h)) => (h, None),

@@ -28,6 +28,14 @@ impl LoadProfile {
             LoadProfile::Table(rows) => crate::math::piecewise_linear(rows, t),
         }
     }
+
+    /// A table's times, where the load's rate jumps.
+    pub fn knots(&self) -> Vec<f64> {
+        match self {
+            LoadProfile::Constant(_) => Vec::new(),
+            LoadProfile::Table(rows) => rows.iter().map(|r| r.0).collect(),
+        }
+    }
 }
 
 /// In which frame a prescribed vector is expressed.
@@ -101,6 +109,23 @@ pub enum Force {
     Spring(PointSpring),
     Torsional(TorsionalSpring),
     External(ExternalLoad),
+}
+
+impl Force {
+    /// The instants at which the force's rate in time jumps: its tables' times, or the end
+    /// of a preload's ramp.
+    pub fn knots(&self) -> Vec<f64> {
+        let ramp_end = |ramp: f64| if ramp > 0.0 { vec![ramp] } else { Vec::new() };
+        match self {
+            Force::Spring(s) => ramp_end(s.ramp),
+            Force::Torsional(s) => ramp_end(s.ramp),
+            Force::External(l) => [&l.force, &l.torque]
+                .into_iter()
+                .flatten()
+                .flat_map(|p| p.knots())
+                .collect(),
+        }
+    }
 }
 
 fn twist_of(r: BodyRef, v: &[f64]) -> Twist {

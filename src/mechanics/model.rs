@@ -7,7 +7,7 @@ use super::contact::clearance::ClearanceJoint;
 use super::contact::compliant::{CompliantContact, CompliantSource};
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
-use super::joint::{BilateralRow, Joint};
+use super::joint::{BilateralRow, Drive, Joint};
 use crate::math::blocks::vector6_at;
 use nalgebra::{DVector, Vector3};
 use std::ops::Range;
@@ -52,6 +52,22 @@ impl State {
 impl Model {
     pub fn body_index(&self, name: &str) -> Option<usize> {
         self.bodies.iter().position(|b| b.name == name)
+    }
+
+    /// The instants at which a prescribed force, drive or preload ramp bends in time,
+    /// sorted. The θ-rule is of second order only where the loads are smooth in time: a
+    /// step across such a knot leaves an error of first order in the step.
+    pub fn knots(&self) -> Vec<f64> {
+        let drives = self.joints.iter().flat_map(|j| match &j.drive {
+            Some(Drive::Position(p) | Drive::Effort(p)) => p.knots(),
+            None => Vec::new(),
+        });
+        let mut knots: Vec<f64> = drives
+            .chain(self.forces.iter().flat_map(|f| f.knots()))
+            .collect();
+        knots.sort_by(f64::total_cmp);
+        knots.dedup();
+        knots
     }
 
     pub fn dofs(&self) -> usize {

@@ -481,6 +481,8 @@ impl Node for RefineSpec {
     fn visit(&mut self, v: &mut dyn Visitor) {
         v.required("for", &mut self.duration, Dim::TIME);
         v.required("h", &mut self.h, Dim::TIME);
+        let h = Fallback::Rule("integrator.h");
+        v.scalar("approach", &mut self.approach, Dim::TIME, h);
     }
 }
 

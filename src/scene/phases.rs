@@ -97,6 +97,10 @@ pub(super) fn schedule(
                 None => None,
                 Some(name) => Some(closing_event(spec, name)?),
             },
+            approach_ratio: match &r.value.approach {
+                None => None,
+                Some(h) => Some(positive(h, Dim::TIME, "refine.approach")? / params.h),
+            },
             extrapolate: r.value.extrapolate,
         });
     }

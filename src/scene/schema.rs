@@ -227,6 +227,8 @@ pub struct RefineSpec {
     pub duration: Q,
     pub h: Q,
     pub until: Option<Name>,
+    /// The step before the window opens (default: the integrator's).
+    pub approach: Option<Q>,
     /// Run the window at `h` and at h/2 and extrapolate the probes (default false).
     #[serde(default)]
     pub extrapolate: bool,

@@ -16,6 +16,14 @@ impl ScalarProfile {
         }
     }
 
+    /// A table's times, where the rate jumps.
+    pub fn knots(&self) -> Vec<f64> {
+        match self {
+            ScalarProfile::Rate { .. } => Vec::new(),
+            ScalarProfile::Table(rows) => rows.iter().map(|r| r.0).collect(),
+        }
+    }
+
     /// Time derivative (right derivative at table knots; zero outside the table).
     pub fn rate(&self, t: f64) -> f64 {
         match self {
