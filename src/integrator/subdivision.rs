@@ -99,16 +99,16 @@ impl Simulation {
         let squeezed = matches!(&trial, Ok(outcome) if self.squeezed(outcome));
         self.stats.squeezed_steps += u64::from(squeezed);
         let trial = trial?;
-        // Impacts are located on request, and always where one knocks another contact shut
-        // within the step or two contacts close in it, and in the rest of a step split at
-        // one: taken together, they would share their momentum as a simultaneous impact
-        // does (a row of balls struck at one end would leave at (−1/3, 2/3, 2/3), not
-        // (0, 0, 1)).
+        // Impacts are located on request (but not in a fixed-step settle: its path is
+        // damped away, and only the rest it reaches is read), and always where one knocks
+        // another contact shut within the step or two contacts close in it, and in the
+        // rest of a step split at one: taken together, they would share their momentum as
+        // a simultaneous impact does (a row of balls struck at one end would leave at
+        // (−1/3, 2/3, 2/3), not (0, 0, 1)).
         let knocked = trial.closing.iter().any(|c| c.knocked);
-        let locate = self.params.locate_impacts
-            || knocked
-            || self.closings_apart(&trial)
-            || depth.splits > 0;
+        let settling = self.control.is_none() && self.schedule.settling(self.state.t).is_some();
+        let requested = self.params.locate_impacts && !settling;
+        let locate = requested || knocked || self.closings_apart(&trial) || depth.splits > 0;
         let impact = match locate && depth.splits < MAX_SPLITS {
             true => self.first_impact(&trial),
             false => None,
