@@ -30,7 +30,6 @@ BUNDLED_TOP = {
     "FC5_needle_lamage_y": "joints.J5.clearance",
     "FC6_bar_plunger_x": "joints.J6.clearance",
     "strike_time": "joints.J6.clearance",
-    "latch_release": "joints.J5.clearance",
     "trip_time": "joints.J5.clearance",
     "contact_opening_time": "joints.J5.clearance",
 }
