@@ -69,7 +69,7 @@ pub struct SimulateOptions {
     pub drawing: Option<DrawingRequest>,
 }
 
-/// Per-step work summed over the run: Newton iterations, solver sweeps (of the last Newton
+/// Per-step work summed over the run: Newton iterations, solver iterations (of the last Newton
 /// iteration), activation passes and active contacts.
 #[derive(Clone, Copy, Debug, Default)]
 struct Work {
@@ -420,7 +420,7 @@ impl fmt::Display for SimulateReport {
         let per_step = |w: u64| w as f64 / st.steps.max(1) as f64;
         writeln!(
             f,
-            "work per step    {:.2} Newton iterations, {:.1} solver sweeps, {:.2} activation passes, {:.1} active contacts (means)",
+            "work per step    {:.2} Newton iterations, {:.1} solver iterations, {:.2} activation passes, {:.1} active contacts (means)",
             per_step(self.work.newton),
             per_step(self.work.sweeps),
             per_step(self.work.passes),

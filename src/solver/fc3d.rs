@@ -18,7 +18,7 @@ pub struct Fc3d<'a> {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SolverStatus {
     pub converged: bool,
-    /// Gauss–Seidel sweeps used.
+    /// Gauss–Seidel sweeps and global Newton iterations used.
     pub iterations: usize,
     /// Relative natural-map error at exit (see [`natural_map_error`]).
     pub residual: f64,
