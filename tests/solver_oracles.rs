@@ -311,7 +311,18 @@ fn global_newton_solves_a_shuffled_chain_in_its_own_order() {
         let mut r = DVector::zeros(m);
         let p = Fc3d { w, q, mu };
         let storage = &mut Default::default();
-        global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 100, storage).expect("converges");
+        // from r = 0, where the velocity W r + q is q
+        let mut u = q.clone();
+        global_newton(
+            &p,
+            &BlockPattern::of(w),
+            &mut r,
+            &mut u,
+            1e-12,
+            100,
+            storage,
+        )
+        .expect("converges");
         check_solution(w, q, mu, &r, 1e-9);
         r
     };

@@ -84,8 +84,10 @@ fn phi_and_jacobian(
     }
 }
 
-/// Damped Newton from `r`; returns the iterations used if it reached `tolerance` (relative
-/// natural-map error), leaving the best iterate in `r` either way. `pattern` is W's block
+/// Damped Newton from `r`, whose velocity W r + q the caller holds in `u` (a solver that
+/// tested its iterate has it already); returns the iterations used if it reached
+/// `tolerance` (relative natural-map error), leaving the best iterate in `r` and its
+/// velocity in `u` either way. `pattern` is W's block
 /// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The Jacobian is
 /// factorised in its blocks (`BlockLu`), the contacts taken in a fill-reducing order
 /// (`BlockPattern::minimum_degree_into`), so that storage and work follow the pattern's
@@ -95,6 +97,7 @@ pub fn global_newton(
     p: &Fc3d,
     pattern: &BlockPattern,
     r: &mut DVector<f64>,
+    u: &mut DVector<f64>,
     tolerance: f64,
     max_iterations: usize,
     storage: &mut NewtonStorage,
@@ -106,7 +109,6 @@ pub fn global_newton(
         iterates:
             Iterates {
                 rho,
-                u,
                 u_trial,
                 phi,
                 phi_trial,
@@ -138,8 +140,6 @@ pub fn global_newton(
             .max(f64::MIN_POSITIVE);
         (1.0 / wn, 1.0 / wt)
     }));
-    // the velocity at the current iterate, which the error test and Φ both read
-    pattern.velocity_into(p.w, r, p.q, u);
     // the step and the trial, every entry written at each use
     buffer::fit(dr, r.len());
     buffer::fit(trial, r.len());
@@ -206,8 +206,7 @@ pub struct NewtonStorage {
 struct Iterates {
     /// Each contact's (ρ_N, ρ_T).
     rho: Vec<(f64, f64)>,
-    /// The velocity at the iterate and at the line search's trial.
-    u: DVector<f64>,
+    /// The velocity at the line search's trial.
     u_trial: DVector<f64>,
     /// Φ at the iterate and at the trial.
     phi: DVector<f64>,
@@ -246,6 +245,7 @@ pub fn proximal_newton(
     let mut current = r.clone();
     let mut best = natural_map_error(p, r);
     let mut w = p.w.clone();
+    let mut u = DVector::zeros(0);
     for _ in 0..max_outer {
         let eta = rel * mean_diag;
         w.set_diagonal(&(p.w.diagonal().add_scalar(eta)));
@@ -256,7 +256,9 @@ pub fn proximal_newton(
             mu: p.mu,
         };
         let mut trial = current.clone();
-        let Some(it) = global_newton(&sub, pattern, &mut trial, 0.01 * tolerance, 50, storage)
+        pattern.velocity_into(&w, &trial, &q, &mut u);
+        let tolerance = 0.01 * tolerance;
+        let Some(it) = global_newton(&sub, pattern, &mut trial, &mut u, tolerance, 50, storage)
         else {
             // even a large shift fails from here: start again from the best iterate
             if rel >= 1.0 {
@@ -307,7 +309,8 @@ mod tests {
         let solve = |w: &DMatrix<f64>, storage: &mut NewtonStorage| {
             let p = Fc3d { w, q: &q, mu: &mu };
             let mut r = DVector::zeros(9);
-            let it = global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 50, storage);
+            let mut u = q.clone();
+            let it = global_newton(&p, &BlockPattern::of(w), &mut r, &mut u, 1e-12, 50, storage);
             (it, natural_map_error(&p, &r), r)
         };
         // storage used by a problem of four contacts whose hub, the first, goes last
@@ -328,7 +331,8 @@ mod tests {
         };
         let mut r4 = DVector::zeros(12);
         let pattern = BlockPattern::of(&hub);
-        assert!(global_newton(&p4, &pattern, &mut r4, 1e-12, 50, &mut used).is_some());
+        let mut u4 = q4.clone();
+        assert!(global_newton(&p4, &pattern, &mut r4, &mut u4, 1e-12, 50, &mut used).is_some());
         for middle in [1, 0] {
             let w = chain(middle);
             let mut order = Vec::new();
@@ -371,7 +375,8 @@ mod tests {
         let solve = |w: &DMatrix<f64>, storage: &mut NewtonStorage| {
             let p = Fc3d { w, q: &q, mu: &mu };
             let mut r = DVector::zeros(12);
-            let it = global_newton(&p, &BlockPattern::of(w), &mut r, 1e-12, 50, storage);
+            let mut u = q.clone();
+            let it = global_newton(&p, &BlockPattern::of(w), &mut r, &mut u, 1e-12, 50, storage);
             assert!(it.is_some());
             r
         };

@@ -75,9 +75,11 @@ struct Sweeps {
     coupled: Coupling,
     /// The local velocity u = W r + q after a sweep.
     u: DVector<f64>,
-    /// W's block pattern and the iterate, as the global Newton method takes them.
+    /// W's block pattern, and the iterate and its velocity, as the global Newton method
+    /// takes them.
     pattern: BlockPattern,
     trial: DVector<f64>,
+    trial_u: DVector<f64>,
 }
 
 /// Solves FC3D by NSGS in `storage`. `r` holds the warm start on entry and the impulses on
@@ -110,6 +112,10 @@ pub fn solve_fc3d(
     sweeps.coupled.fill(p.w, n);
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
     if !sweeps.coupled.blocks.is_empty() && r.iter().any(|&x| x != 0.0) {
+        let Sweeps {
+            blocks, coupled, u, ..
+        } = sweeps;
+        local_velocity(p, r, blocks, coupled, u);
         if let Some(status) = newton_from(p, r, sweeps, newton, opts.tolerance, WARM_NEWTON, 0) {
             return status;
         }
@@ -149,7 +155,8 @@ pub fn solve_fc3d(
 }
 
 /// The global Newton method from `r`, at most `iterations` of them after `done` sweeps:
-/// its solution in `r`, or `r` untouched if it fails.
+/// its solution in `r`, or `r` untouched if it fails. `sweeps.u` holds W r + q on entry;
+/// an `r` that already solves the problem (a warm start, often) costs no set-up.
 fn newton_from(
     p: &Fc3d,
     r: &mut DVector<f64>,
@@ -165,13 +172,21 @@ fn newton_from(
         u,
         pattern,
         trial,
+        trial_u,
     } = sweeps;
+    let mut it = 0;
+    let mut residual = natural_map_error_at(p, r, u);
+    if residual > tolerance {
+        buffer::copy_into(trial, r);
+        buffer::copy_into(trial_u, u);
+        coupled.pattern_into(p.mu.len(), pattern);
+        it = global_newton(p, pattern, trial, trial_u, tolerance, iterations, newton)?;
+        std::mem::swap(r, trial);
+        std::mem::swap(u, trial_u);
+        residual = natural_map_error_at(p, r, u);
+    }
     buffer::copy_into(trial, r);
-    coupled.pattern_into(p.mu.len(), pattern);
-    let it = global_newton(p, pattern, trial, tolerance, iterations, newton)?;
-    r.copy_from(trial);
-    local_velocity(p, r, blocks, coupled, u);
-    let residual = open_exactly(p, r, u, trial, tolerance, |r, u| {
+    let residual = open_exactly(p, r, u, residual, trial, tolerance, |r, u| {
         local_velocity(p, r, blocks, coupled, u)
     });
     Some(SolverStatus {
@@ -241,17 +256,18 @@ impl Coupling {
     }
 }
 
-/// The natural-map error of the global Newton method's solution `r` (with u = W r + q),
-/// after setting to exactly zero the impulse of every contact that the natural map says
-/// is open (P_K(r − ρ û) = 0), as a sweep's local solve does; `r` is kept as it was
-/// (`kept` holds a copy) if that would leave the tolerance. Newton leaves round-off
-/// impulses on separating contacts: on redundant corners, a corner carrying 1e-14 of an
-/// impact that its neighbours do not counts as closed, and the projection then holds it
-/// alone on its surface and tilts the body.
+/// The natural-map error of the global Newton method's solution `r` (with u = W r + q
+/// and natural-map error `residual`), after setting to exactly zero the impulse of every
+/// contact that the natural map says is open (P_K(r − ρ û) = 0), as a sweep's local solve
+/// does; `r` is kept as it was (`kept` holds a copy) if that would leave the tolerance.
+/// Newton leaves round-off impulses on separating contacts: on redundant corners, a
+/// corner carrying 1e-14 of an impact that its neighbours do not counts as closed, and the
+/// projection then holds it alone on its surface and tilts the body.
 fn open_exactly(
     p: &Fc3d,
     r: &mut DVector<f64>,
     u: &mut DVector<f64>,
+    residual: f64,
     kept: &DVector<f64>,
     tolerance: f64,
     velocity: impl Fn(&DVector<f64>, &mut DVector<f64>),
@@ -269,16 +285,17 @@ fn open_exactly(
             opened = true;
         }
     }
-    if opened {
-        velocity(r, u);
-        let residual = natural_map_error_at(p, r, u);
-        if residual <= tolerance {
-            return residual;
-        }
-        r.copy_from(kept);
-        velocity(r, u);
+    if !opened {
+        return residual;
     }
-    natural_map_error_at(p, r, u)
+    velocity(r, u);
+    let opened_residual = natural_map_error_at(p, r, u);
+    if opened_residual <= tolerance {
+        return opened_residual;
+    }
+    r.copy_from(kept);
+    velocity(r, u);
+    residual
 }
 
 /// u = W r + q over the nonzero blocks of W only (each contact's own and `coupled`), into
@@ -316,10 +333,12 @@ fn last_resort(
         .last_resort
         .then(|| {
             let mut trial = r.clone();
-            let found =
-                global_newton(p, pattern, &mut trial, opts.tolerance, 100, newton).or_else(|| {
+            let mut u = DVector::zeros(0);
+            pattern.velocity_into(p.w, &trial, p.q, &mut u);
+            let tolerance = opts.tolerance;
+            let found = global_newton(p, pattern, &mut trial, &mut u, tolerance, 100, newton)
+                .or_else(|| {
                     trial.copy_from(r);
-                    let tolerance = opts.tolerance;
                     proximal_newton(p, pattern, &mut trial, tolerance, PROXIMAL_OUTER, newton)
                 });
             // the proximal iterations leave their best iterate, never worse than the sweeps' one
@@ -635,7 +654,8 @@ mod tests {
             let kept = r.clone();
             let mut u = DVector::zeros(6);
             velocity(&r, &mut u);
-            let residual = open_exactly(&p, &mut r, &mut u, &kept, tolerance, velocity);
+            let e = natural_map_error(&p, &r);
+            let residual = open_exactly(&p, &mut r, &mut u, e, &kept, tolerance, velocity);
             assert_eq!(residual, natural_map_error(&p, &r), "{r}");
             assert_eq!(u, &w * &r + &q);
             r
@@ -648,7 +668,8 @@ mod tests {
         let kept = r.clone();
         let mut u = DVector::zeros(6);
         velocity(&r, &mut u);
-        let residual = open_exactly(&p, &mut r, &mut u, &kept, 1e-6, velocity);
+        let e = natural_map_error(&p, &r);
+        let residual = open_exactly(&p, &mut r, &mut u, e, &kept, 1e-6, velocity);
         assert_eq!(r, kept);
         assert_eq!(residual, natural_map_error(&p, &r));
         assert!(residual > 1e-6, "{residual}");
