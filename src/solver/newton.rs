@@ -257,9 +257,8 @@ pub fn proximal_newton(
         };
         let mut trial = current.clone();
         pattern.velocity_into(&w, &trial, &q, &mut u);
-        let tolerance = 0.01 * tolerance;
-        let Some(it) = global_newton(&sub, pattern, &mut trial, &mut u, tolerance, 50, storage)
-        else {
+        let inner = 0.01 * tolerance;
+        let Some(it) = global_newton(&sub, pattern, &mut trial, &mut u, inner, 50, storage) else {
             // even a large shift fails from here: start again from the best iterate
             if rel >= 1.0 {
                 rel = 1e-4;
