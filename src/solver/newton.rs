@@ -87,8 +87,8 @@ fn phi_and_jacobian(
 /// Damped Newton from `r`, whose velocity W r + q the caller holds in `u` (a solver that
 /// tested its iterate has it already); returns the iterations used if it reached
 /// `tolerance` (relative natural-map error), leaving the best iterate in `r` and its
-/// velocity in `u` either way. `pattern` is W's block
-/// pattern (`BlockPattern::of`, or `of_pairs` from blocks already found). The Jacobian is
+/// velocity in `u` either way. `pattern` is W's block pattern (`BlockPattern::of`, or
+/// `of_pairs` from blocks already found). The Jacobian is
 /// factorised in its blocks (`BlockLu`), the contacts taken in a fill-reducing order
 /// (`BlockPattern::minimum_degree_into`), so that storage and work follow the pattern's
 /// fill-in rather than the problem's size. `storage` is the method's, reused from one call

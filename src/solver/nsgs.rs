@@ -116,7 +116,10 @@ pub fn solve_fc3d(
             blocks, coupled, u, ..
         } = sweeps;
         local_velocity(p, r, blocks, coupled, u);
-        if let Some(status) = newton_from(p, r, sweeps, newton, opts.tolerance, WARM_NEWTON, 0) {
+        let residual = natural_map_error_at(p, r, u);
+        let tolerance = opts.tolerance;
+        if let Some(status) = newton_from(p, r, residual, sweeps, newton, tolerance, WARM_NEWTON, 0)
+        {
             return status;
         }
     }
@@ -145,7 +148,9 @@ pub fn solve_fc3d(
         // unsolved goes to the global Newton method from the sweep's iterate, and to more
         // sweeps if Newton fails
         if sweep == 1 || sweep == GLOBAL_NEWTON_AFTER || sweep == 5 * GLOBAL_NEWTON_AFTER {
-            if let Some(status) = newton_from(p, r, sweeps, newton, opts.tolerance, 100, sweep) {
+            let tolerance = opts.tolerance;
+            if let Some(status) = newton_from(p, r, residual, sweeps, newton, tolerance, 100, sweep)
+            {
                 return status;
             }
         }
@@ -155,11 +160,14 @@ pub fn solve_fc3d(
 }
 
 /// The global Newton method from `r`, at most `iterations` of them after `done` sweeps:
-/// its solution in `r`, or `r` untouched if it fails. `sweeps.u` holds W r + q on entry;
-/// an `r` that already solves the problem (a warm start, often) costs no set-up.
+/// its solution in `r`, or `r` untouched if it fails. `sweeps.u` holds W r + q on entry,
+/// and `residual` its natural-map error; an `r` that already solves the problem (a warm
+/// start, often) costs no set-up.
+#[allow(clippy::too_many_arguments)]
 fn newton_from(
     p: &Fc3d,
     r: &mut DVector<f64>,
+    residual: f64,
     sweeps: &mut Sweeps,
     newton: &mut NewtonStorage,
     tolerance: f64,
@@ -174,8 +182,7 @@ fn newton_from(
         trial,
         trial_u,
     } = sweeps;
-    let mut it = 0;
-    let mut residual = natural_map_error_at(p, r, u);
+    let (mut it, mut residual) = (0, residual);
     if residual > tolerance {
         buffer::copy_into(trial, r);
         buffer::copy_into(trial_u, u);
