@@ -102,6 +102,31 @@ pub fn global_newton(
     max_iterations: usize,
     storage: &mut NewtonStorage,
 ) -> Option<usize> {
+    let residual = natural_map_error_at(p, r, u);
+    let stop = (tolerance, max_iterations);
+    global_newton_from(p, pattern, r, u, residual, stop, storage).map(|s| s.iterations)
+}
+
+/// A solution the global Newton method reached: the iterations it took and its
+/// natural-map error.
+#[derive(Clone, Copy, Debug)]
+pub struct Reached {
+    pub iterations: usize,
+    pub residual: f64,
+}
+
+/// `global_newton` for a caller that knows the natural-map error `residual` of `r` (with
+/// velocity `u`) and wants the solution's: it is evaluated once at every iterate, by the
+/// method only. `(tolerance, max_iterations)` is where it stops.
+pub fn global_newton_from(
+    p: &Fc3d,
+    pattern: &BlockPattern,
+    r: &mut DVector<f64>,
+    u: &mut DVector<f64>,
+    residual: f64,
+    (tolerance, max_iterations): (f64, usize),
+    storage: &mut NewtonStorage,
+) -> Option<Reached> {
     let NewtonStorage {
         order,
         ordered,
@@ -143,9 +168,13 @@ pub fn global_newton(
     // the step and the trial, every entry written at each use
     buffer::fit(dr, r.len());
     buffer::fit(trial, r.len());
+    let mut residual = residual;
     for it in 0..max_iterations {
-        if natural_map_error_at(p, r, u) <= tolerance {
-            return Some(it);
+        if residual <= tolerance {
+            return Some(Reached {
+                iterations: it,
+                residual,
+            });
         }
         factors.clear_fill();
         phi_and_jacobian(p, pattern, r, u, rho, phi, Some((factors, position)));
@@ -177,6 +206,7 @@ pub fn global_newton(
             if phi_trial.norm_squared() <= (1.0 - 1e-4 * t) * f0 {
                 r.copy_from(trial);
                 std::mem::swap(u, u_trial);
+                residual = natural_map_error_at(p, r, u);
                 break;
             }
             t *= 0.5;
@@ -185,7 +215,10 @@ pub fn global_newton(
             }
         }
     }
-    (natural_map_error_at(p, r, u) <= tolerance).then_some(max_iterations)
+    (residual <= tolerance).then_some(Reached {
+        iterations: max_iterations,
+        residual,
+    })
 }
 
 /// The global Newton method's storage, reused from one solve to the next: every entry is

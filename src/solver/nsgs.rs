@@ -7,7 +7,7 @@ use super::fc3d::{
     contact_rho, local_natural_map, natural_map_error, natural_map_error_at, project_on_cone, Fc3d,
     SolverStatus,
 };
-use super::newton::{global_newton, proximal_newton, NewtonStorage};
+use super::newton::{global_newton, global_newton_from, proximal_newton, NewtonStorage};
 use super::ordering::{block_is_nonzero, BlockPattern};
 use crate::math::blocks::{block3, set_vector3, vector3};
 use crate::math::buffer;
@@ -75,9 +75,7 @@ struct Sweeps {
     coupled: Coupling,
     /// The local velocity u = W r + q after a sweep.
     u: DVector<f64>,
-    /// W's block pattern, and the iterate and its velocity, as the global Newton method
-    /// takes them.
-    pattern: BlockPattern,
+    /// The iterate and its velocity, as the global Newton method takes them.
     trial: DVector<f64>,
     trial_u: DVector<f64>,
 }
@@ -141,8 +139,7 @@ pub fn solve_fc3d(
         if residual < 0.9 * best {
             (best, best_sweep) = (residual, sweep);
         } else if sweep - best_sweep > STAGNATION_SWEEPS {
-            sweeps.coupled.pattern_into(n, &mut sweeps.pattern);
-            return last_resort(p, &sweeps.pattern, r, opts, sweep, newton);
+            return last_resort(p, sweeps.coupled.pattern(), r, opts, sweep, newton);
         }
         // Gauss–Seidel crawls on ill-conditioned Delassus matrices: what a sweep leaves
         // unsolved goes to the global Newton method from the sweep's iterate, and to more
@@ -155,8 +152,14 @@ pub fn solve_fc3d(
             }
         }
     }
-    sweeps.coupled.pattern_into(n, &mut sweeps.pattern);
-    last_resort(p, &sweeps.pattern, r, opts, opts.max_sweeps, newton)
+    last_resort(
+        p,
+        sweeps.coupled.pattern(),
+        r,
+        opts,
+        opts.max_sweeps,
+        newton,
+    )
 }
 
 /// The global Newton method from `r`, at most `iterations` of them after `done` sweeps:
@@ -178,7 +181,6 @@ fn newton_from(
         blocks,
         coupled,
         u,
-        pattern,
         trial,
         trial_u,
     } = sweeps;
@@ -186,11 +188,12 @@ fn newton_from(
     if residual > tolerance {
         buffer::copy_into(trial, r);
         buffer::copy_into(trial_u, u);
-        coupled.pattern_into(p.mu.len(), pattern);
-        it = global_newton(p, pattern, trial, trial_u, tolerance, iterations, newton)?;
+        let stop = (tolerance, iterations);
+        let pattern = coupled.pattern();
+        let reached = global_newton_from(p, pattern, trial, trial_u, residual, stop, newton)?;
+        (it, residual) = (reached.iterations, reached.residual);
         std::mem::swap(r, trial);
         std::mem::swap(u, trial_u);
-        residual = natural_map_error_at(p, r, u);
     }
     buffer::copy_into(trial, r);
     let residual = open_exactly(p, r, u, residual, trial, tolerance, |r, u| {
@@ -224,36 +227,65 @@ fn sweep_contacts(
     }
 }
 
-/// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks.
+/// The nonzero off-diagonal 3×3 blocks of W, row of blocks by row of blocks, and their
+/// pattern as the global Newton method takes it.
 #[derive(Default)]
 struct Coupling {
     /// (b, W_ab) for every contact a in turn, b ascending.
     blocks: Vec<(usize, Matrix3<f64>)>,
-    /// Contact a's blocks are `blocks[start[a]..start[a + 1]]`.
+    /// Contact a's blocks are `blocks[start[a]..start[a + 1]]`; `columns` holds their b.
     start: Vec<usize>,
+    columns: Vec<usize>,
+    /// `start` and `columns` of the blocks held before, to tell whether the pattern changed.
+    last_start: Vec<usize>,
+    last_columns: Vec<usize>,
+    /// The blocks' pattern, formed when Newton first needs it and kept while it stays the
+    /// same (a contact problem keeps its pattern over most steps of a simulation).
+    pattern: BlockPattern,
+    pattern_formed: bool,
 }
 
 impl Coupling {
     /// The blocks of `w`, a matrix of n × n blocks, in place of those held.
     fn fill(&mut self, w: &DMatrix<f64>, n: usize) {
-        let Coupling { blocks, start } = self;
+        std::mem::swap(&mut self.start, &mut self.last_start);
+        std::mem::swap(&mut self.columns, &mut self.last_columns);
+        let Coupling {
+            blocks,
+            start,
+            columns,
+            ..
+        } = self;
         blocks.clear();
         start.clear();
+        columns.clear();
         for a in 0..n {
             start.push(blocks.len());
             for b in (0..n).filter(|&b| b != a && block_is_nonzero(w, a, b)) {
                 blocks.push((b, block3(w, 3 * a, 3 * b)));
+                columns.push(b);
             }
         }
         start.push(blocks.len());
+        self.pattern_formed &= self.start == self.last_start && self.columns == self.last_columns;
     }
 
-    /// W's block pattern, as the global Newton method takes it, into `pattern`.
-    fn pattern_into(&self, n: usize, pattern: &mut BlockPattern) {
-        pattern.set_pairs(
-            n,
-            (0..n).flat_map(|a| self.of_contact(a).map(move |(b, _)| (a, b))),
-        );
+    /// W's block pattern, as the global Newton method takes it.
+    fn pattern(&mut self) -> &BlockPattern {
+        if !self.pattern_formed {
+            let n = self.start.len() - 1;
+            let Coupling {
+                start,
+                columns,
+                pattern,
+                ..
+            } = self;
+            let pairs =
+                (0..n).flat_map(|a| columns[start[a]..start[a + 1]].iter().map(move |&b| (a, b)));
+            pattern.set_pairs(n, pairs);
+            self.pattern_formed = true;
+        }
+        &self.pattern
     }
 
     fn of_contact(&self, a: usize) -> impl Iterator<Item = (usize, &Matrix3<f64>)> {
@@ -792,5 +824,46 @@ mod tests {
         let (reused, _, r2) = solve(&mut used);
         assert_eq!(fresh, reused);
         assert_eq!(r, r2);
+    }
+
+    /// Newton's block pattern follows W's from one solve to the next: three contacts
+    /// coupled as 0–1, then as 1–2 (the same size, another pattern), warm-started so that
+    /// the global Newton method solves them, solve to the same bits in storage that the
+    /// other pattern used as in fresh storage.
+    #[test]
+    fn newtons_pattern_follows_the_coupling() {
+        let coupled_as = |pair: (usize, usize)| {
+            DMatrix::from_fn(9, 9, move |i, j| {
+                let (a, b) = (i / 3, j / 3);
+                if i == j {
+                    2.0 + 0.1 * i as f64
+                } else if (a, b) == pair || (b, a) == pair {
+                    0.9 / (1.0 + (i + j) as f64)
+                } else {
+                    0.0
+                }
+            })
+        };
+        let q = DVector::from_fn(9, |i, _| if i % 3 == 0 { -1.0 } else { 0.3 });
+        let mu = [0.3, 0.5, 0.4];
+        let solve = |w: &DMatrix<f64>, storage: &mut SolverStorage| {
+            let p = Fc3d { w, q: &q, mu: &mu };
+            // a warm start that is not the solution
+            let mut r = DVector::from_fn(9, |i, _| if i % 3 == 0 { 0.4 } else { 0.01 });
+            let status = solve_fc3d(&p, &mut r, &NsgsOptions::default(), storage);
+            assert!(status.converged && status.iterations > 0, "{status:?}");
+            assert!(natural_map_error(&p, &r) <= 1e-10);
+            (status, r)
+        };
+        let (first, second) = (coupled_as((0, 1)), coupled_as((1, 2)));
+        let fresh = [&first, &second].map(|w| solve(w, &mut SolverStorage::default()));
+        let mut used = SolverStorage::default();
+        for (w, fresh) in [
+            (&first, &fresh[0]),
+            (&second, &fresh[1]),
+            (&first, &fresh[0]),
+        ] {
+            assert_eq!(&solve(w, &mut used), fresh);
+        }
     }
 }
