@@ -80,6 +80,14 @@ struct Sweeps {
     trial_u: DVector<f64>,
 }
 
+impl Sweeps {
+    /// The natural-map error of `r`, its velocity u = W r + q left in `self.u`.
+    fn error_at(&mut self, p: &Fc3d, r: &DVector<f64>) -> f64 {
+        local_velocity(p, r, &self.blocks, &self.coupled, &mut self.u);
+        natural_map_error_at(p, r, &self.u)
+    }
+}
+
 /// Solves FC3D by NSGS in `storage`. `r` holds the warm start on entry and the impulses on
 /// exit.
 pub fn solve_fc3d(
@@ -109,12 +117,8 @@ pub fn solve_fc3d(
     // them makes a sweep over a mechanism cost what its couplings cost
     sweeps.coupled.fill(p.w, n);
     let (mut best, mut best_sweep) = (f64::INFINITY, 0);
-    if !sweeps.coupled.blocks.is_empty() && r.iter().any(|&x| x != 0.0) {
-        let Sweeps {
-            blocks, coupled, u, ..
-        } = sweeps;
-        local_velocity(p, r, blocks, coupled, u);
-        let residual = natural_map_error_at(p, r, u);
+    if !sweeps.coupled.columns.is_empty() && r.iter().any(|&x| x != 0.0) {
+        let residual = sweeps.error_at(p, r);
         let tolerance = opts.tolerance;
         if let Some(status) = newton_from(p, r, residual, sweeps, newton, tolerance, WARM_NEWTON, 0)
         {
@@ -122,12 +126,8 @@ pub fn solve_fc3d(
         }
     }
     for sweep in 1..=opts.max_sweeps {
-        let Sweeps {
-            blocks, coupled, u, ..
-        } = sweeps;
-        sweep_contacts(p, r, blocks, coupled);
-        local_velocity(p, r, blocks, coupled, u);
-        let residual = natural_map_error_at(p, r, u);
+        sweep_contacts(p, r, &sweeps.blocks, &sweeps.coupled);
+        let residual = sweeps.error_at(p, r);
         if residual <= opts.tolerance || !residual.is_finite() {
             return SolverStatus {
                 converged: residual.is_finite(),
@@ -231,11 +231,11 @@ fn sweep_contacts(
 /// pattern as the global Newton method takes it.
 #[derive(Default)]
 struct Coupling {
-    /// (b, W_ab) for every contact a in turn, b ascending.
-    blocks: Vec<(usize, Matrix3<f64>)>,
-    /// Contact a's blocks are `blocks[start[a]..start[a + 1]]`; `columns` holds their b.
-    start: Vec<usize>,
+    /// W_ab and its b for every contact a in turn, b ascending: contact a's are at
+    /// `start[a]..start[a + 1]`.
+    blocks: Vec<Matrix3<f64>>,
     columns: Vec<usize>,
+    start: Vec<usize>,
     /// `start` and `columns` of the blocks held before, to tell whether the pattern changed.
     last_start: Vec<usize>,
     last_columns: Vec<usize>,
@@ -262,7 +262,7 @@ impl Coupling {
         for a in 0..n {
             start.push(blocks.len());
             for b in (0..n).filter(|&b| b != a && block_is_nonzero(w, a, b)) {
-                blocks.push((b, block3(w, 3 * a, 3 * b)));
+                blocks.push(block3(w, 3 * a, 3 * b));
                 columns.push(b);
             }
         }
@@ -289,9 +289,11 @@ impl Coupling {
     }
 
     fn of_contact(&self, a: usize) -> impl Iterator<Item = (usize, &Matrix3<f64>)> {
-        self.blocks[self.start[a]..self.start[a + 1]]
+        let run = self.start[a]..self.start[a + 1];
+        self.columns[run.clone()]
             .iter()
-            .map(|(b, w)| (*b, w))
+            .copied()
+            .zip(&self.blocks[run])
     }
 }
 
