@@ -108,6 +108,9 @@ impl Simulation {
         sum.add(self);
         self.h = 0.0;
         let active = self.impact_contacts(i, in_step);
+        if active.iter().any(|&k| self.is_guard(k)) {
+            self.evaluate_guards();
+        }
         let mut vs = self.velocity(&active, &mut ws.velocity);
         // nothing is projected at the impact: the elimination goes back to the workspace,
         // for the velocity steps of the rest of the step

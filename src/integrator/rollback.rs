@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 pub(super) struct Rollback {
     state: State,
     points: Vec<ContactPoint>,
+    guards_evaluated: bool,
     impulses: Vec<Vector3<f64>>,
     warm: Vec<Vector3<f64>>,
     joint_impulses: Vec<f64>,
@@ -25,6 +26,7 @@ impl Rollback {
         Rollback {
             state: sim.state.clone(),
             points: sim.points.clone(),
+            guards_evaluated: sim.guards_evaluated,
             impulses: sim.impulses.clone(),
             warm: sim.warm.clone(),
             joint_impulses: sim.joint_impulses.clone(),
@@ -63,6 +65,7 @@ impl Rollback {
     pub(super) fn restore(self, sim: &mut Simulation) {
         sim.state = self.state;
         sim.points = self.points;
+        sim.guards_evaluated = self.guards_evaluated;
         sim.impulses = self.impulses;
         sim.warm = self.warm;
         sim.joint_impulses = self.joint_impulses;

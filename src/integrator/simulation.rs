@@ -61,7 +61,8 @@ pub(super) struct Outcome {
     pub(super) active: Vec<usize>,
     pub(super) vs: VelocityStep,
     pub(super) poses: Vec<Pose>,
-    /// The contact points at `poses`, when the scheme evaluated them.
+    /// The contact points at `poses`, when the scheme evaluated them: of the clearance
+    /// guards, their gaps alone (`Simulation::guards_evaluated`).
     pub(super) points: Option<Vec<ContactPoint>>,
     /// Contacts the activation loop added (closing within the step).
     pub(super) closing: Vec<Closing>,
@@ -185,6 +186,12 @@ pub struct Simulation {
     pub(super) mask: Vec<bool>,
     pub(super) minv: Vec<Matrix6<f64>>,
     pub(super) points: Vec<ContactPoint>,
+    /// Whether the clearance guards' entries of `points` are their points at the current
+    /// poses. Where not, each holds its current gap, and the rest of an earlier point of
+    /// the same guard: a step reads the rest only where it may carry a journal across its
+    /// clearance (`crossed_guards`), and evaluates the guards then
+    /// (`evaluate_guards`). A guard that carries an impulse is always evaluated.
+    pub(super) guards_evaluated: bool,
     /// Per candidate, its impulse over the last step (the sum of the step's parts, where it
     /// was taken in parts: `subdivision.rs`).
     pub(super) impulses: Vec<Vector3<f64>>,
@@ -280,6 +287,7 @@ impl Simulation {
             joint_impulses: Vec::new(),
             active: Vec::new(),
             points: Vec::new(),
+            guards_evaluated: false,
             candidates,
             h: params.h,
             t0: state.t,
@@ -306,13 +314,15 @@ impl Simulation {
     /// Contact points, penetration and joint violations at the current poses; `points` and
     /// `joints`, when given, are the contact points and the joints' violations already
     /// evaluated there (the combined scheme's activation test evaluates the points at the
-    /// end-of-step poses, and a projection the joints where it leaves them; violations of
-    /// another time are evaluated again). Returns the points `points` replaced.
+    /// end-of-step poses, of the guards their gaps alone, and a projection the joints where
+    /// it leaves them; violations of another time are evaluated again). Returns the points
+    /// `points` replaced.
     pub(super) fn update_geometry(
         &mut self,
         points: Option<Vec<ContactPoint>>,
         joints: Option<JointViolation>,
     ) -> Option<Vec<ContactPoint>> {
+        self.guards_evaluated = points.is_none() || self.model.clearance_joints.is_empty();
         let replaced = match points {
             Some(points) => Some(std::mem::replace(&mut self.points, points)),
             None => {
@@ -343,7 +353,21 @@ impl Simulation {
         self.guard_ring[i].is_some()
     }
 
+    /// Evaluates the clearance guards' points at the current poses, where `points` holds
+    /// their gaps alone (`guards_evaluated`).
+    pub(super) fn evaluate_guards(&mut self) {
+        if !self.guards_evaluated {
+            let (poses, candidates) = (&self.state.poses, &self.candidates);
+            self.model
+                .evaluate_guards(poses, candidates, &mut self.points);
+            self.guards_evaluated = true;
+        }
+    }
+
     /// Contact candidates evaluated at the current state, in `Model::contact_candidates` order.
+    /// Of a clearance guard that carries no impulse, only the gap is sure to be current
+    /// (`ClearanceJoint::is_guard`): the combined scheme evaluates the rest of a guard's
+    /// point only for a step that needs it.
     pub fn contact_points(&self) -> &[ContactPoint] {
         &self.points
     }
@@ -807,6 +831,11 @@ impl Simulation {
         self.located_impact = None;
         let report = self.advance(step_end, Depth::default(), &mut ws);
         self.workspace = Some(ws);
+        // a guard's impulse acts along its point's rows (a probe's reaction)
+        let pushed = |(ring, p): (&Option<usize>, &Vector3<f64>)| ring.is_some() && p.x != 0.0;
+        if !self.guards_evaluated && self.guard_ring.iter().zip(&self.impulses).any(pushed) {
+            self.evaluate_guards();
+        }
         report
     }
 
@@ -892,7 +921,9 @@ impl Simulation {
     }
 
     /// The step of size `self.h` from the current state, not yet taken.
-    pub(super) fn compute(&self, ws: &mut StepWorkspace) -> Result<Outcome, SimError> {
+    /// The combined scheme evaluates the clearance guards' points first where the step
+    /// needs them and the state holds their gaps alone (`guards_evaluated`).
+    pub(super) fn compute(&mut self, ws: &mut StepWorkspace) -> Result<Outcome, SimError> {
         let p = self.step_params();
         // poses a step ended at were checked when that step was computed
         let joints = &self.model.clearance_joints;
@@ -905,11 +936,12 @@ impl Simulation {
                     })?;
             }
         }
-        let v0 = &self.state.v;
-        let forecast = |c: &ContactPoint| p.forecast(c, v0.as_slice()) <= p.activation_margin;
         let mut report = StepReport::default();
         let mut outcome = match p.scheme {
             Scheme::MoreauJean | Scheme::DirectProjection => {
+                let v0 = &self.state.v;
+                let forecast =
+                    |c: &ContactPoint| p.forecast(c, v0.as_slice()) <= p.activation_margin;
                 let mut in_active: Vec<bool> = self.points.iter().map(forecast).collect();
                 let mut active: Vec<usize> =
                     (0..in_active.len()).filter(|&i| in_active[i]).collect();
@@ -952,7 +984,13 @@ impl Simulation {
                     report,
                 }
             }
-            Scheme::CombinedProjection => self.combined(report, ws),
+            // once the guards are evaluated, the step needs nothing more
+            Scheme::CombinedProjection => loop {
+                if let Some(outcome) = self.combined(report, ws) {
+                    break outcome;
+                }
+                self.evaluate_guards();
+            },
         };
         if outcome.vs.v.as_slice().iter().any(|x| !x.is_finite())
             || outcome

@@ -3,7 +3,7 @@
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
 use super::body::{Motion, Pose, RigidBody, Twist};
-use super::contact::clearance::ClearanceJoint;
+use super::contact::clearance::{ClearanceJoint, Placed};
 use super::contact::compliant::{CompliantContact, CompliantSource};
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
@@ -295,17 +295,19 @@ impl Model {
         selected: &[Candidate],
         out: &mut Vec<ContactPoint>,
     ) {
-        self.evaluate_selected_knowing(poses, selected, |_| None, out);
+        self.evaluate_selected_knowing(poses, selected, |_| None, Guards::Points, out);
     }
 
     /// `evaluate_selected`, taking the points of contact pairs and joint stops that
     /// `known(k)` gives for the k-th selected candidate (evaluated at the same poses)
-    /// instead of evaluating them again.
+    /// instead of evaluating them again, and of the clearance joints' guards what `guards`
+    /// asks for.
     pub fn evaluate_selected_knowing<'a>(
         &self,
         poses: &[Pose],
         selected: &[Candidate],
         known: impl Fn(usize) -> Option<&'a ContactPoint>,
+        guards: Guards,
         out: &mut Vec<ContactPoint>,
     ) {
         // one growth at most, where `out` holds fewer entries than there are candidates
@@ -335,7 +337,9 @@ impl Model {
                     let clearance = &self.clearance_joints[joint];
                     let placed = clearance.place(poses);
                     for (j, point) in points.enumerate() {
+                        let gap_alone = guards == Guards::Gaps && clearance.is_guard(point);
                         match out.get_mut(k + j) {
+                            Some(slot) if gap_alone => clearance.write_gap(point, &placed, slot),
                             Some(slot) => clearance.write_point(point, &placed, slot),
                             None => out.push(clearance.point(point, &placed)),
                         }
@@ -345,6 +349,34 @@ impl Model {
             }
         }
         out.truncate(selected.len());
+    }
+
+    /// The points of the clearance joints' guards among `selected` at `poses`, written
+    /// over their entries of `out` (one per selected candidate); the other entries are
+    /// left as they are.
+    pub fn evaluate_guards(
+        &self,
+        poses: &[Pose],
+        selected: &[Candidate],
+        out: &mut [ContactPoint],
+    ) {
+        let mut placed: Option<(usize, Placed)> = None;
+        for (slot, &c) in out.iter_mut().zip(selected) {
+            let Candidate::Clearance { joint, point } = c else {
+                continue;
+            };
+            let clearance = &self.clearance_joints[joint];
+            if !clearance.is_guard(point) {
+                continue;
+            }
+            // each joint placed once: its points are consecutive
+            let at = match placed.take() {
+                Some((j, at)) if j == joint => at,
+                _ => clearance.place(poses),
+            };
+            clearance.write_point(point, &at, slot);
+            placed = Some((joint, at));
+        }
     }
 
     /// A readable name of the candidate for outputs: `floor`, `box[3]`, `J1.upper`.
@@ -379,6 +411,18 @@ impl Model {
             }
         }
     }
+}
+
+/// What an evaluation writes of a clearance joint's guards (`ClearanceJoint::is_guard`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Guards {
+    /// Their whole points.
+    Points,
+    /// Their gaps alone, over the gaps of the entries there (an entry the list lacks gets
+    /// the whole point): the rest of a guard's point is needed only by a step that may
+    /// carry the journal across its clearance, and it costs as much as the rest of the
+    /// joint's points.
+    Gaps,
 }
 
 /// Sets entry `k` of `out` (which holds at least `k` entries) to the point `make` gives:

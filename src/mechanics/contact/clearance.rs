@@ -144,21 +144,9 @@ impl ClearanceJoint {
             p_j,
         } = placed.frames;
         if k < 2 || self.is_guard(k) {
-            let (side, offset) = match k {
-                0 => (-1.0, 0),
-                1 => (1.0, 0),
-                _ => self.guard(k),
-            };
-            let (ring, (cos, sin)) = &placed.rings[usize::from(side > 0.0)];
-            // the closest point's angle turned by offset/RING_POINTS of a turn
-            let (turn_cos, turn_sin) = ring_turns()[offset];
-            let at = (
-                cos * turn_cos - sin * turn_sin,
-                sin * turn_cos + cos * turn_sin,
-            );
+            let (ring, at, guard) = self.ring_point(k, placed);
             let g = ring.point_against_journal(at, &p_j, &a_j, self.journal_radius);
             let t2 = g.normal.cross(&a_j);
-            let guard = offset != 0;
             // a guard is open when it acts: frictionless, on the linearised gap
             let lateral = (!guard).then(|| self.lateral(&g, &a_j, &pb, &pj));
             slot.renew(
@@ -209,6 +197,33 @@ impl ClearanceJoint {
                 self.e,
             );
         }
+    }
+
+    /// The gap of ring point `k` (a ring's closest point or a guard) of the joint `placed`
+    /// written over `slot`'s, the rest of `slot` left as it is: bit for bit the gap that
+    /// `write_point` gives, for the cost of the distance alone.
+    pub fn write_gap(&self, k: usize, placed: &Placed, slot: &mut ContactPoint) {
+        let (ring, at, _) = self.ring_point(k, placed);
+        let Frames { a_j, p_j, .. } = placed.frames;
+        slot.geometry.gap = ring.axis_offset(at, &p_j, &a_j).2.norm() - self.journal_radius;
+    }
+
+    /// Ring point `k` (0 or 1, or a guard) of the joint `placed`: its ring, the cosine and
+    /// sine of its angle, and whether it is a guard.
+    fn ring_point<'a>(&self, k: usize, placed: &'a Placed) -> (&'a Ring, (f64, f64), bool) {
+        let (side, offset) = match k {
+            0 => (-1.0, 0),
+            1 => (1.0, 0),
+            _ => self.guard(k),
+        };
+        let (ring, (cos, sin)) = &placed.rings[usize::from(side > 0.0)];
+        // the closest point's angle turned by offset/RING_POINTS of a turn
+        let (turn_cos, turn_sin) = ring_turns()[offset];
+        let at = (
+            cos * turn_cos - sin * turn_sin,
+            sin * turn_cos + cos * turn_sin,
+        );
+        (ring, at, offset != 0)
     }
 
     /// The ring contact's curvature across its normal: the journal axis's foot (the
@@ -420,6 +435,19 @@ impl Ring {
         (cs, sn)
     }
 
+    /// The ring point at the angle whose cosine and sine are `at`, its foot on the axis
+    /// (`p`, unit `aj`), and its offset from there (the ring point less the foot).
+    fn axis_offset(
+        &self,
+        at: (f64, f64),
+        p: &Vector3<f64>,
+        aj: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+        let ring_point = self.point(at);
+        let foot = p + aj * (ring_point - p).dot(aj);
+        (ring_point, foot, ring_point - foot)
+    }
+
     /// The ring point at the angle whose cosine and sine are `at`, against the cylinder
     /// (`p`, `aj`, radius `rj`): the normal points from the cylinder surface towards the
     /// ring point, gap = distance − rj.
@@ -430,9 +458,7 @@ impl Ring {
         aj: &Vector3<f64>,
         rj: f64,
     ) -> ContactGeometry {
-        let ring_point = self.point(at);
-        let foot = p + aj * (ring_point - p).dot(aj);
-        let d = ring_point - foot;
+        let (ring_point, foot, d) = self.axis_offset(at, p, aj);
         let dist = d.norm();
         let normal = if dist > 0.0 {
             d / dist
