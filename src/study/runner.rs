@@ -345,13 +345,16 @@ pub fn check_out(out: &Path) -> Result<()> {
     if out.as_os_str().is_empty() {
         bail!("the output directory is empty text: give --out DIR or the study's `output`");
     }
-    if !out.exists() || super::manifest::path(out).exists() {
+    if !out.exists() {
         return Ok(());
     }
     if !out.is_dir() {
         bail!("{} exists and is not a directory", out.display());
     }
-    if !is_skeleton(out)? {
+    // Another task of the same array may write its first manifest, then study.yaml, while
+    // this one looks. The manifest comes first, so it is asked for after the scan: a scan
+    // that met anything else was made when the manifest already existed.
+    if !is_skeleton(out)? && !super::manifest::path(out).exists() {
         bail!(
             "{} is not empty and holds no results of mc-study (no manifest.json); nothing was written. Choose a new or empty directory, or the directory of an earlier run of this study.",
             out.display()
@@ -637,4 +640,49 @@ pub fn run_rows(
     report.interrupted = !m.completed.missing_in(a, b).is_empty();
     report.wall_seconds = start.elapsed().as_secs_f64();
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Barrier};
+
+    /// A task of an array checks OUT while a sibling writes its first manifest and then its
+    /// study.yaml: the directory is a skeleton before and a result directory after, so
+    /// `check_out` must accept it whatever it sees in between.
+    #[test]
+    fn check_out_accepts_a_directory_whose_manifest_appears_while_it_looks() {
+        let root = std::env::temp_dir().join(format!("mc-study-check-out-{}", std::process::id()));
+        let start = Arc::new(Barrier::new(2));
+        for i in 0..500 {
+            let out = root.join(i.to_string());
+            std::fs::create_dir_all(parts_dir(&out)).unwrap();
+            std::fs::write(out.join(".lock"), "").unwrap();
+            std::fs::write(out.join(".manifest.json.x.tmp"), "{}").unwrap();
+            let writer = {
+                let (out, start) = (out.clone(), start.clone());
+                std::thread::spawn(move || {
+                    start.wait();
+                    let manifest = super::super::manifest::path(&out);
+                    std::fs::rename(out.join(".manifest.json.x.tmp"), manifest).unwrap();
+                    std::fs::write(out.join("study.yaml"), "name: x\n").unwrap();
+                })
+            };
+            start.wait();
+            let checked = check_out(&out);
+            writer.join().unwrap();
+            assert!(checked.is_ok(), "attempt {i}: {:#}", checked.unwrap_err());
+        }
+        std::fs::remove_dir_all(&root).unwrap();
+        // an unrelated directory is still refused
+        let stranger = root.join("stranger");
+        std::fs::create_dir_all(&stranger).unwrap();
+        std::fs::write(stranger.join("study.yaml"), "name: x\n").unwrap();
+        let refused = check_out(&stranger).unwrap_err().to_string();
+        assert!(
+            refused.contains("holds no results of mc-study"),
+            "{refused}"
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }
