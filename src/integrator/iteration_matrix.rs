@@ -39,51 +39,60 @@ enum Group {
     },
 }
 
-/// The inverse of `$m` (N × N) by the same LU as a dynamic matrix's, in fixed-size
-/// storage: a coupled group of two to four bodies is inverted at every assembly, and the
-/// dynamic LU allocates and checks its bounds at every entry.
-macro_rules! inverse_fixed {
-    ($m:expr, $n:literal) => {{
-        let fixed = SMatrix::<f64, $n, $n>::from_fn(|i, j| $m[(i, j)]);
-        let inverse = fixed.lu().try_inverse();
-        inverse.map(|inverse| DMatrix::from_fn($n, $n, |i, j| inverse[(i, j)]))
+/// Writes the inverse of the N × N rotation part of a group's W (`w`) into the rotation
+/// rows and columns of `inv` by the same LU as a dynamic matrix's, in fixed-size storage;
+/// false where it is singular. A coupled group of two to four bodies is inverted at every
+/// assembly, and the dynamic LU allocates and checks its bounds at every entry.
+macro_rules! invert_rotations_fixed {
+    ($w:expr, $inv:expr, $n:literal) => {{
+        let fixed = SMatrix::<f64, $n, $n>::from_fn(|i, j| $w[(rotation_row(i), rotation_row(j))]);
+        match fixed.lu().try_inverse() {
+            Some(r) => {
+                write_rotations($inv, $n, |i, j| r[(i, j)]);
+                true
+            }
+            None => false,
+        }
     }};
 }
 
-/// The inverse of a coupled group's W (6 rows per body), NaN where W is singular. Torsional
-/// springs and dampers couple only the bodies' rotations: then each body's translation
-/// block stands alone (inverted in closed form) and only the 3k × 3k rotation part needs a
-/// dense LU, an eighth of the work.
+/// Whether a coupled group's W (6 rows per body) is separable: no entry couples a body's
+/// translation to any rotation, nor to another body's translation. Torsional springs and
+/// dampers couple only the bodies' rotations.
+fn separable(w: &DMatrix<f64>) -> bool {
+    let bodies = w.nrows() / 6;
+    (0..bodies).all(|i| {
+        (0..bodies).all(|j| {
+            let zero = |r: usize, c: usize| {
+                w.fixed_view::<3, 3>(6 * i + r, 6 * j + c)
+                    .iter()
+                    .all(|&x| x == 0.0)
+            };
+            zero(0, 3) && zero(3, 0) && (i == j || zero(0, 0))
+        })
+    })
+}
+
+/// The inverse of a coupled group's W (6 rows per body), NaN where W is singular. Where W
+/// is separable each body's translation block stands alone (inverted in closed form) and
+/// only the 3k × 3k rotation part needs a dense LU, an eighth of the work.
 fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
     let n = w.nrows();
     let bodies = n / 6;
-    let translation = |r: usize| (r % 6) < 3;
-    let separable = (0..n).all(|r| {
-        (0..n).all(|c| {
-            let same_translation = translation(r) && translation(c) && r / 6 == c / 6;
-            let both_rotation = !translation(r) && !translation(c);
-            same_translation || both_rotation || w[(r, c)] == 0.0
-        })
-    });
     let nan = || DMatrix::from_element(n, n, f64::NAN);
-    if !separable {
+    if !separable(&w) {
         return w.lu().try_inverse().unwrap_or_else(nan);
     }
-    let Some(r_inv) = inverse_rotations(rotation_part(&w)) else {
-        return nan();
-    };
     let mut inv = DMatrix::zeros(n, n);
+    if !invert_rotations(&w, &mut inv) {
+        return nan();
+    }
     for b in 0..bodies {
         let t = w.fixed_view::<3, 3>(6 * b, 6 * b).into_owned();
         let Some(t_inv) = t.try_inverse() else {
             return nan();
         };
         inv.fixed_view_mut::<3, 3>(6 * b, 6 * b).copy_from(&t_inv);
-    }
-    for i in 0..3 * bodies {
-        for j in 0..3 * bodies {
-            inv[(rotation_row(i), rotation_row(j))] = r_inv[(i, j)];
-        }
     }
     inv
 }
@@ -99,13 +108,30 @@ fn rotation_part(w: &DMatrix<f64>) -> DMatrix<f64> {
     DMatrix::from_fn(k, k, |i, j| w[(rotation_row(i), rotation_row(j))])
 }
 
-/// The inverse of a rotation part by LU, in fixed-size storage for two to four bodies.
-fn inverse_rotations(r: DMatrix<f64>) -> Option<DMatrix<f64>> {
-    match r.nrows() / 3 {
-        2 => inverse_fixed!(r, 6),
-        3 => inverse_fixed!(r, 9),
-        4 => inverse_fixed!(r, 12),
-        _ => r.lu().try_inverse(),
+/// Writes the inverse of the rotation part of a group's W into the rotation rows and
+/// columns of `inv`, by LU (in fixed-size storage for two to four bodies); false where it
+/// is singular.
+fn invert_rotations(w: &DMatrix<f64>, inv: &mut DMatrix<f64>) -> bool {
+    match w.nrows() / 6 {
+        2 => invert_rotations_fixed!(w, inv, 6),
+        3 => invert_rotations_fixed!(w, inv, 9),
+        4 => invert_rotations_fixed!(w, inv, 12),
+        _ => match rotation_part(w).lu().try_inverse() {
+            Some(r) => {
+                write_rotations(inv, r.nrows(), |i, j| r[(i, j)]);
+                true
+            }
+            None => false,
+        },
+    }
+}
+
+/// Entry (i, j) of an n × n rotation part, written at its rows and columns of `inv`.
+fn write_rotations(inv: &mut DMatrix<f64>, n: usize, entry: impl Fn(usize, usize) -> f64) {
+    for i in 0..n {
+        for j in 0..n {
+            inv[(rotation_row(i), rotation_row(j))] = entry(i, j);
+        }
     }
 }
 
@@ -698,10 +724,12 @@ mod tests {
         }
         // the fixed-size LU of two to four bodies' rotations is the dynamic one, bit for bit
         for bodies in 2..=4 {
-            let r = rotation_part(&w_like(bodies, false));
-            let dynamic = r.clone().lu().try_inverse();
-            assert!(dynamic.is_some(), "{bodies} bodies");
-            assert_eq!(inverse_rotations(r), dynamic, "{bodies} bodies");
+            let w = w_like(bodies, false);
+            let dynamic = rotation_part(&w).lu().try_inverse();
+            let dynamic = dynamic.unwrap_or_else(|| panic!("{bodies} bodies"));
+            let mut fixed = DMatrix::zeros(6 * bodies, 6 * bodies);
+            assert!(invert_rotations(&w, &mut fixed), "{bodies} bodies");
+            assert_eq!(rotation_part(&fixed), dynamic, "{bodies} bodies");
         }
         assert!(inverse_coupled(DMatrix::zeros(12, 12))[(0, 0)].is_nan());
         assert!(inverse6(&Matrix6::zeros())[(0, 0)].is_nan());
