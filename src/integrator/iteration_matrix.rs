@@ -15,7 +15,7 @@ use crate::math::skew;
 use crate::mechanics::body::{holds_none, moves, Twist};
 use crate::mechanics::force::{Force, RotationBlock};
 use crate::mechanics::{Model, Pose};
-use nalgebra::{DMatrix, DVector, Dyn, Matrix6, SMatrix, StorageMut, Vector};
+use nalgebra::{Const, DMatrix, DVector, Dyn, Matrix6, SMatrix, StorageMut, Vector};
 
 /// Relative finite-difference step for force-element Jacobians.
 const FD_STEP: f64 = 1e-6;
@@ -31,11 +31,16 @@ enum Group {
     Single {
         body: usize,
         inverse: Matrix6<f64>,
+        /// Whether `inverse` keeps the translations apart from the rotations.
+        separable: bool,
     },
     /// Bodies coupled by force elements (ascending), 6 rows each in `inverse`.
     Coupled {
         bodies: Vec<usize>,
         inverse: DMatrix<f64>,
+        /// Whether `inverse` keeps each body's translations apart from its rotations and
+        /// from the other bodies (`separable`).
+        separable: bool,
     },
 }
 
@@ -73,15 +78,16 @@ fn separable(w: &DMatrix<f64>) -> bool {
     })
 }
 
-/// The inverse of a coupled group's W (6 rows per body), NaN where W is singular. Where W
-/// is separable each body's translation block stands alone (inverted in closed form) and
-/// only the 3k × 3k rotation part needs a dense LU, an eighth of the work.
-fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
+/// The inverse of a coupled group's W (6 rows per body), NaN where W is singular, and
+/// whether it is separable. Where W is separable each body's translation block stands
+/// alone (inverted in closed form) and only the 3k × 3k rotation part needs a dense LU, an
+/// eighth of the work.
+fn inverse_coupled(w: DMatrix<f64>) -> (DMatrix<f64>, bool) {
     let n = w.nrows();
     let bodies = n / 6;
-    let nan = || DMatrix::from_element(n, n, f64::NAN);
+    let nan = || (DMatrix::from_element(n, n, f64::NAN), false);
     if !separable(&w) {
-        return w.lu().try_inverse().unwrap_or_else(nan);
+        return w.lu().try_inverse().map_or_else(nan, |inv| (inv, false));
     }
     let mut inv = DMatrix::zeros(n, n);
     if !invert_rotations(&w, &mut inv) {
@@ -94,7 +100,7 @@ fn inverse_coupled(w: DMatrix<f64>) -> DMatrix<f64> {
         };
         inv.fixed_view_mut::<3, 3>(6 * b, 6 * b).copy_from(&t_inv);
     }
-    inv
+    (inv, true)
 }
 
 /// The row of a group's W (6 per body) that holds row `i` of its rotation part (3 per body).
@@ -139,6 +145,7 @@ fn write_rotations(inv: &mut DMatrix<f64>, n: usize, entry: impl Fn(usize, usize
 /// non-finite state). A block without translation–rotation coupling (a body under torsional
 /// springs and dampers only, with its gyroscopic term) is inverted as two 3×3 blocks in
 /// closed form.
+#[cfg(test)]
 fn inverse6(m: &Matrix6<f64>) -> Matrix6<f64> {
     let mut inverse = Matrix6::zeros();
     inverse6_into(m, &mut inverse);
@@ -147,8 +154,9 @@ fn inverse6(m: &Matrix6<f64>) -> Matrix6<f64> {
 
 /// `inverse6` written into `out`, which holds zeros, where it lies: a 6×6 block built
 /// aside and copied into a group is read back in pieces that straddle those it was stored
-/// in, and the copy waits for the stores.
-fn inverse6_into(m: &Matrix6<f64>, out: &mut Matrix6<f64>) {
+/// in, and the copy waits for the stores. Returns whether the inverse is separable: its
+/// translation–rotation blocks zero.
+fn inverse6_into(m: &Matrix6<f64>, out: &mut Matrix6<f64>) -> bool {
     let uncoupled = m.fixed_view::<3, 3>(0, 3).iter().all(|&x| x == 0.0)
         && m.fixed_view::<3, 3>(3, 0).iter().all(|&x| x == 0.0);
     if uncoupled {
@@ -157,13 +165,14 @@ fn inverse6_into(m: &Matrix6<f64>, out: &mut Matrix6<f64>) {
         if let (Some(a), Some(b)) = (a, b) {
             out.fixed_view_mut::<3, 3>(0, 0).copy_from(&a);
             out.fixed_view_mut::<3, 3>(3, 3).copy_from(&b);
-            return;
+            return true;
         }
     } else if let Some(inverse) = m.lu().try_inverse() {
         *out = inverse;
-        return;
+        return false;
     }
     out.fill(f64::NAN);
+    false
 }
 
 /// W, kept as the inverses of its groups. Its buffers are reused when it is assembled
@@ -495,9 +504,13 @@ impl IterationMatrix {
                 self.groups.push(Group::Single {
                     body,
                     inverse: Matrix6::zeros(),
+                    separable: false,
                 });
-                if let Some(Group::Single { inverse, .. }) = self.groups.last_mut() {
-                    inverse6_into(d, inverse);
+                if let Some(Group::Single {
+                    inverse, separable, ..
+                }) = self.groups.last_mut()
+                {
+                    *separable = inverse6_into(d, inverse);
                 }
             }
             self.group_of.extend(0..n);
@@ -510,9 +523,12 @@ impl IterationMatrix {
         for first in (0..n).filter(|&i| roots[i] == i) {
             let group = if size[first] == 1 {
                 self.group_of[first] = self.groups.len();
+                let mut inverse = Matrix6::zeros();
+                let separable = inverse6_into(&diag[first], &mut inverse);
                 Group::Single {
                     body: first,
-                    inverse: inverse6(&diag[first]),
+                    inverse,
+                    separable,
                 }
             } else {
                 let bodies: Vec<usize> = (first..n).filter(|&b| roots[b] == first).collect();
@@ -520,9 +536,11 @@ impl IterationMatrix {
                     self.group_of[b] = self.groups.len();
                 }
                 let w = self.coupled_block(&bodies, diag, off);
+                let (inverse, separable) = inverse_coupled(w);
                 Group::Coupled {
                     bodies,
-                    inverse: inverse_coupled(w),
+                    inverse,
+                    separable,
                 }
             };
             self.groups.push(group);
@@ -573,11 +591,15 @@ impl IterationMatrix {
         }
         for g in &self.groups {
             match g {
-                Group::Single { body: i, inverse } => {
+                Group::Single {
+                    body: i, inverse, ..
+                } => {
                     let s: Twist = inverse * x.fixed_rows::<6>(6 * i);
                     x.fixed_rows_mut::<6>(6 * i).copy_from(&s);
                 }
-                Group::Coupled { bodies, inverse } => {
+                Group::Coupled {
+                    bodies, inverse, ..
+                } => {
                     let mut y = DVector::zeros(6 * bodies.len());
                     for (gi, &i) in bodies.iter().enumerate() {
                         y.fixed_rows_mut::<6>(6 * gi)
@@ -634,14 +656,24 @@ impl IterationMatrix {
             }
             done[k] = gi;
             match &self.groups[gi] {
-                Group::Single { inverse, .. } => {
+                Group::Single {
+                    inverse, separable, ..
+                } => {
                     let mut gt = SMatrix::<f64, 6, R>::zeros();
                     for (bb, gb) in blocks.iter().filter(|(bb, _)| *bb == b) {
                         gt += masked(*bb, gb);
                     }
-                    out.push((b, inverse * gt));
+                    let y = match separable {
+                        true => separable_product(&inverse.fixed_view::<6, 6>(0, 0), &gt, true),
+                        false => inverse * gt,
+                    };
+                    out.push((b, y));
                 }
-                Group::Coupled { bodies, inverse } => {
+                Group::Coupled {
+                    bodies,
+                    inverse,
+                    separable,
+                } => {
                     // only the columns of W⁻¹ of the contact's bodies enter
                     let mut terms = [(0, SMatrix::<f64, 6, R>::zeros()); 2];
                     let mut count = 0;
@@ -655,7 +687,11 @@ impl IterationMatrix {
                         if moves(&self.mask, bb) {
                             let mut y = SMatrix::<f64, 6, R>::zeros();
                             for (gk, g) in &terms[..count] {
-                                y += inverse.fixed_view::<6, 6>(6 * gj, 6 * gk) * g;
+                                let block = inverse.fixed_view::<6, 6>(6 * gj, 6 * gk);
+                                match separable {
+                                    true => y += separable_product(&block, g, gj == *gk),
+                                    false => y += block * g,
+                                }
                             }
                             out.push((bb, y));
                         }
@@ -664,6 +700,24 @@ impl IterationMatrix {
             }
         }
     }
+}
+
+/// `block` × `g` for a 6×6 block of a separable inverse: its translation–rotation blocks
+/// are zero, and so is its translation block unless it is a body's own (`own`). The zero
+/// blocks' terms are left out, which changes no sum but for the sign of a zero.
+fn separable_product<S: nalgebra::Storage<f64, Const<6>, Const<6>>, const R: usize>(
+    block: &nalgebra::Matrix<f64, Const<6>, Const<6>, S>,
+    g: &SMatrix<f64, 6, R>,
+    own: bool,
+) -> SMatrix<f64, 6, R> {
+    let mut y = SMatrix::<f64, 6, R>::zeros();
+    if own {
+        y.fixed_rows_mut::<3>(0)
+            .copy_from(&(block.fixed_view::<3, 3>(0, 0) * g.fixed_rows::<3>(0)));
+    }
+    y.fixed_rows_mut::<3>(3)
+        .copy_from(&(block.fixed_view::<3, 3>(3, 3) * g.fixed_rows::<3>(3)));
+    y
 }
 
 use std::ops::AddAssign;
@@ -698,6 +752,33 @@ mod tests {
         w
     }
 
+    /// The product by a separable inverse's block, its zero blocks left out, equals the
+    /// whole product (== counts −0 and +0 as equal), on a body's own block and another's;
+    /// and an inverse with a translation–rotation entry is not taken as separable.
+    #[test]
+    fn separable_products_equal_whole_ones() {
+        let (inv, separable) = inverse_coupled(w_like(3, false));
+        assert!(separable);
+        let g = SMatrix::<f64, 6, 3>::from_fn(|i, j| 0.3 * i as f64 - 0.7 * j as f64 + 0.11);
+        for (gj, gk) in [(0, 0), (1, 1), (0, 2), (2, 1)] {
+            let block = inv.fixed_view::<6, 6>(6 * gj, 6 * gk);
+            let whole = block * g;
+            assert_eq!(separable_product(&block, &g, gj == gk), whole);
+            assert!(whole.amax() > 0.0, "({gj}, {gk})");
+        }
+        let mut single = Matrix6::zeros();
+        assert!(inverse6_into(
+            &w_like(1, false).fixed_view::<6, 6>(0, 0).into_owned(),
+            &mut single
+        ));
+        assert_eq!(separable_product(&single, &g, true), single * g);
+        let mut mixed = Matrix6::zeros();
+        assert!(!inverse6_into(
+            &w_like(1, true).fixed_view::<6, 6>(0, 0).into_owned(),
+            &mut mixed
+        ));
+    }
+
     /// The separable inverse (closed-form translations, LU on the rotations) is W⁻¹: it
     /// agrees with the LU inverse of the whole matrix, and W W⁻¹ = I, with or without the
     /// rotation coupling; an inseparable matrix takes the general path.
@@ -705,7 +786,8 @@ mod tests {
     fn coupled_and_single_inverses_are_inverses() {
         for (bodies, mixed) in [(3, false), (2, false), (2, true)] {
             let w = w_like(bodies, mixed);
-            let inv = inverse_coupled(w.clone());
+            let (inv, separable) = inverse_coupled(w.clone());
+            assert_eq!(separable, !mixed, "{bodies} bodies, mixed {mixed}");
             let reference = w.clone().lu().try_inverse().unwrap();
             assert!(
                 (&inv - &reference).amax() < 1e-12,
@@ -731,7 +813,8 @@ mod tests {
             assert!(invert_rotations(&w, &mut fixed), "{bodies} bodies");
             assert_eq!(rotation_part(&fixed), dynamic, "{bodies} bodies");
         }
-        assert!(inverse_coupled(DMatrix::zeros(12, 12))[(0, 0)].is_nan());
+        assert!(inverse_coupled(DMatrix::zeros(12, 12)).0[(0, 0)].is_nan());
+        assert!(!inverse_coupled(DMatrix::zeros(12, 12)).1);
         assert!(inverse6(&Matrix6::zeros())[(0, 0)].is_nan());
     }
 }
