@@ -187,12 +187,6 @@ impl ContactBlocks {
     }
 }
 
-fn contact_blocks(c: &ContactPoint, mask: &[bool]) -> ContactBlocks {
-    let mut out = ContactBlocks::EMPTY;
-    out.write(c, mask);
-    out
-}
-
 /// Where a velocity step starts: the model and its integrated degrees of freedom
 /// (`mask`, `model.dof_mask()`), the step's parameters, the settling damping in force, and
 /// the state (t, poses, v0).
@@ -472,11 +466,7 @@ impl VelocityStorage {
             let frame = &active[a].point.frame;
             at_mid.carry_tangents_of(frame);
             at_end.carry_tangents_of(frame);
-            self.problem.turn(
-                a,
-                contact_blocks(at_mid, start.mask),
-                contact_blocks(at_end, start.mask),
-            );
+            self.problem.turn(a, at_mid, at_end, start.mask);
         }
     }
 
@@ -767,14 +757,15 @@ impl ContactProblem {
         self.turned = false;
     }
 
-    /// Contact `a` acts along `g` and is measured along `h`.
-    fn turn(&mut self, a: usize, g: ContactBlocks, h: ContactBlocks) {
+    /// Contact `a` acts along the rows of its point `mid` and is measured along those of
+    /// `end`, on the moving bodies (`mask`).
+    fn turn(&mut self, a: usize, mid: &ContactPoint, end: &ContactPoint, mask: &[bool]) {
         if !self.turned {
             self.h.clone_from(&self.g);
             self.turned = true;
         }
-        self.g[a] = g;
-        self.h[a] = h;
+        self.g[a].write(mid, mask);
+        self.h[a].write(end, mask);
     }
 
     /// The rows each contact's velocity is measured along.
