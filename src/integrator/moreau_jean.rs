@@ -588,7 +588,8 @@ impl VelocityStorage {
         poses.clear();
         poses.extend_from_slice(&self.poses1);
         normal_speeds.clear();
-        normal_speeds.extend(self.problem.measured().iter().map(|bc| bc.velocity(&v).x));
+        let measured = |c: usize| self.problem.measured(c).velocity(&v).x;
+        normal_speeds.extend((0..contacts).map(measured));
         impulses.clear();
         impulses.extend((0..contacts).map(|c| self.r.fixed_rows::<3>(3 * c).into_owned()));
         joint_impulses.clear();
@@ -728,9 +729,11 @@ fn cap_warm_start(r: &mut DVector<f64>, reach: f64) {
 #[derive(Default)]
 struct ContactProblem {
     /// Each contact's Jacobian blocks along which its impulse acts (G), and, when those of
-    /// some persistent contact `turned`, those along which its velocity is measured (H).
+    /// some persistent contact `turned`, those along which its velocity is measured (H):
+    /// `h[c]` for a contact `apart[c]`, else its G.
     g: Vec<ContactBlocks>,
     h: Vec<ContactBlocks>,
+    apart: Vec<bool>,
     turned: bool,
     /// Each contact's response W⁻¹Gᵀ along its impulse rows, sparse over the bodies; with
     /// joints, constrained (y − W⁻¹Hᵀ S⁻¹ H y).
@@ -760,20 +763,22 @@ impl ContactProblem {
     /// Contact `a` acts along the rows of its point `mid` and is measured along those of
     /// `end`, on the moving bodies (`mask`).
     fn turn(&mut self, a: usize, mid: &ContactPoint, end: &ContactPoint, mask: &[bool]) {
+        let n = self.g.len();
         if !self.turned {
-            self.h.clone_from(&self.g);
+            self.apart.clear();
+            self.apart.resize(n, false);
+            // over the entries the last step left, as `start_rows`
+            self.h.resize(n, ContactBlocks::EMPTY);
             self.turned = true;
         }
         self.g[a].write(mid, mask);
         self.h[a].write(end, mask);
+        self.apart[a] = true;
     }
 
-    /// The rows each contact's velocity is measured along.
-    fn measured(&self) -> &[ContactBlocks] {
-        match self.turned {
-            true => &self.h,
-            false => &self.g,
-        }
+    /// The rows contact `c`'s velocity is measured along.
+    fn measured(&self, c: usize) -> &ContactBlocks {
+        measured(&self.g, &self.h, &self.apart, self.turned, c)
     }
 
     /// Forms the problem for the iteration matrix `w`, the joints' `elimination`, the
@@ -818,13 +823,10 @@ impl ContactProblem {
         }
         self.written.clear();
         zeros(&mut self.q, 3 * n);
-        let measured = match self.turned {
-            true => &self.h,
-            false => &self.g,
-        };
-        for (c, bc) in measured.iter().enumerate() {
+        for (c, &shift) in shift.iter().enumerate().take(n) {
+            let bc = measured(&self.g, &self.h, &self.apart, self.turned, c);
             let mut qc = bc.velocity(v_free);
-            qc.x += shift[c];
+            qc.x += shift;
             self.q.fixed_rows_mut::<3>(3 * c).copy_from(&qc);
             for (b, g) in bc.iter() {
                 for &(d, k) in &self.on_body[*b] {
@@ -834,6 +836,21 @@ impl ContactProblem {
                 }
             }
         }
+    }
+}
+
+/// The rows contact `c` of a problem whose lists are `g`, `h` and `apart` is measured along
+/// (`ContactProblem::measured`), from lists borrowed apart from the rest of the problem.
+fn measured<'a>(
+    g: &'a [ContactBlocks],
+    h: &'a [ContactBlocks],
+    apart: &[bool],
+    turned: bool,
+    c: usize,
+) -> &'a ContactBlocks {
+    match turned && apart[c] {
+        true => &h[c],
+        false => &g[c],
     }
 }
 
@@ -895,6 +912,7 @@ mod tests {
                 let problem = ContactProblem {
                     g: Vec::new(),
                     h: Vec::new(),
+                    apart: Vec::new(),
                     turned: true,
                     ys: vec![vec![(0, Matrix6x3::from_element(f64::NAN))]; 3],
                     corrections: Vec::new(),
