@@ -823,7 +823,9 @@ impl ContactProblem {
         }
         self.written.clear();
         zeros(&mut self.q, 3 * n);
-        for (c, &shift) in shift.iter().enumerate().take(n) {
+        // one shift per contact, as the index it replaces asked
+        debug_assert_eq!(shift.len(), n, "one impact-law shift per contact");
+        for (c, &shift) in shift.iter().enumerate() {
             let bc = measured(&self.g, &self.h, &self.apart, self.turned, c);
             let mut qc = bc.velocity(v_free);
             qc.x += shift;
