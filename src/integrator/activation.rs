@@ -30,7 +30,7 @@ pub(super) struct ActivationLists {
     in_active: Vec<bool>,
     closed: Vec<bool>,
     /// Per ring, how far the step can move any of its points along their normals (h times
-    /// the θ-weighted bound of `ClearanceJoint::ring_speed_bound`).
+    /// the θ-weighted bound of `ClearanceJoint::ring_speed_bounds`).
     travel: Vec<f64>,
     /// Per ring crossed, its most crossed guard: (ring, candidate, gap).
     worst: Vec<(usize, usize, f64)>,
@@ -184,11 +184,9 @@ impl Simulation {
         } = lists;
         travel.clear();
         travel.extend(self.model.clearance_joints.iter().flat_map(|j| {
-            [-1.0, 1.0].map(|side| {
-                let bound = |v: &[f64]| j.ring_speed_bound(side, &self.state.poses, v);
-                let (b0, b1) = (bound(self.state.v.as_slice()), bound(vs.v.as_slice()));
-                p.h * ((1.0 - p.theta).abs() * b0 + p.theta.abs() * b1)
-            })
+            let bounds = |v: &[f64]| j.ring_speed_bounds(&self.state.poses, v);
+            let (b0, b1) = (bounds(self.state.v.as_slice()), bounds(vs.v.as_slice()));
+            [0, 1].map(|ring| p.h * ((1.0 - p.theta).abs() * b0[ring] + p.theta.abs() * b1[ring]))
         }));
         worst.clear();
         for (i, ring) in self.guard_ring.iter().enumerate() {

@@ -191,6 +191,11 @@ impl TorsionalSpring {
         }
     }
 
+    /// The axis in the world.
+    pub fn axis(&self, poses: &[Pose]) -> Vector3<f64> {
+        pose_of(self.a, poses).dir(&self.axis_a)
+    }
+
     /// Relative angle φ ∈ (−π, π] of b about the axis, and the world axis.
     pub fn angle(&self, poses: &[Pose]) -> (f64, Vector3<f64>) {
         let pa = pose_of(self.a, poses);
@@ -263,7 +268,7 @@ impl Force {
         let Force::Torsional(s) = self else {
             return false;
         };
-        let (_, n) = s.angle(poses);
+        let n = s.axis(poses);
         let local = |r: BodyRef| r.map(|i| (i, poses[i].p.inverse_transform_vector(&n)));
         let ends = [(local(s.a), -1.0), (local(s.b), 1.0)];
         let blocks = out;

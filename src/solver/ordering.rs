@@ -9,15 +9,16 @@ use crate::math::blocks::{block3, set_vector3, vector3};
 use crate::math::buffer;
 use nalgebra::{DMatrix, DVector};
 
-/// Whether the 3×3 block (a, b) of W has a nonzero entry, read from its three columns,
-/// contiguous in W's storage.
+/// Whether the 3×3 block (a, b) of W has a nonzero entry (x != 0.0: NaN counts, −0.0
+/// does not), read from its three columns, contiguous in W's storage. The entries' bits
+/// are or-ed without their signs, branch-free: most blocks of a mechanism's W are zero.
 pub fn block_is_nonzero(w: &DMatrix<f64>, a: usize, b: usize) -> bool {
     let (m, data) = (w.nrows(), w.as_slice());
-    (0..3).any(|c| {
-        data[(3 * b + c) * m + 3 * a..][..3]
-            .iter()
-            .any(|&x| x != 0.0)
-    })
+    let bits = (0..3).fold(0u64, |bits, c| {
+        let column = &data[(3 * b + c) * m + 3 * a..][..3];
+        bits | column[0].to_bits() | column[1].to_bits() | column[2].to_bits()
+    });
+    bits << 1 != 0
 }
 
 /// Which 3×3 blocks of a contact problem's W are nonzero, symmetrised (a and b coupled when

@@ -17,7 +17,7 @@ use super::{point_row, BodyFrame, ContactGeometry, ContactPoint, Lateral};
 use crate::math::any_orthogonal;
 use crate::math::blocks::vector6_at;
 use crate::mechanics::body::BodyRef;
-use crate::mechanics::body::{point_velocity, pose_of, Pose};
+use crate::mechanics::body::{pose_of, Pose, Twist};
 use nalgebra::Vector3;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -247,25 +247,35 @@ impl ClearanceJoint {
         }
     }
 
-    /// An upper bound on the normal speed |u_N| of every point of ring `side` (−1 or +1)
-    /// against the journal, for the twists `v` at `poses`: |w| + |Ω_B − Ω_J| R_B, with w
-    /// the relative velocity of the two bodies' material points at the ring's centre and Ω
-    /// their angular velocities (a ring point is R_B from the centre). It lets a step pass
+    /// Upper bounds on the normal speed |u_N| of every point of the − and + rings against
+    /// the journal, for the twists `v` at `poses`: |w| + |Ω_B − Ω_J| R_B, with w the
+    /// relative velocity of the two bodies' material points at the ring's centre and Ω
+    /// their angular velocities (a ring point is R_B from the centre). They let a step pass
     /// over the guards that it cannot carry the journal across without forming their
-    /// speeds.
-    pub fn ring_speed_bound(&self, side: f64, poses: &[Pose], v: &[f64]) -> f64 {
-        let centre = pose_of(self.bore_body, poses)
-            .point(&(self.bore_center + self.bore_axis * (side * 0.5 * self.bore_length)));
-        // the velocity of a body's material point at the centre, and its angular velocity
+    /// speeds. The two rings share the bodies' angular velocities.
+    pub fn ring_speed_bounds(&self, poses: &[Pose], v: &[f64]) -> [f64; 2] {
+        let bore = pose_of(self.bore_body, poses);
+        // a body's twist and its angular velocity in the world
         let motion = |r: BodyRef| {
-            r.map_or((Vector3::zeros(), Vector3::zeros()), |i| {
+            r.map(|i| {
                 let tw = vector6_at(v, 6 * i);
-                let omega = poses[i].p * tw.fixed_rows::<3>(3);
-                (point_velocity(&poses[i], &tw, &centre), omega)
+                (i, tw, poses[i].p * tw.fixed_rows::<3>(3))
             })
         };
-        let ((w_b, omega_b), (w_j, omega_j)) = (motion(self.bore_body), motion(self.journal_body));
-        (w_b - w_j).norm() + (omega_b - omega_j).norm() * self.bore_radius()
+        let (b, j) = (motion(self.bore_body), motion(self.journal_body));
+        let omega = |m: Option<(usize, Twist, Vector3<f64>)>| m.map_or(Vector3::zeros(), |m| m.2);
+        let spin = (omega(b) - omega(j)).norm() * self.bore_radius();
+        [-1.0, 1.0].map(|side| {
+            let centre =
+                bore.point(&(self.bore_center + self.bore_axis * (side * 0.5 * self.bore_length)));
+            // the velocity of a body's material point at the centre
+            let at_centre = |m: Option<(usize, Twist, Vector3<f64>)>| {
+                m.map_or(Vector3::zeros(), |(i, tw, omega)| {
+                    tw.fixed_rows::<3>(0) + omega.cross(&(centre - poses[i].x))
+                })
+            };
+            (at_centre(b) - at_centre(j)).norm() + spin
+        })
     }
 
     /// The bore's centre (mid-length, on its axis) in the world at `poses`.
