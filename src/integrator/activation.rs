@@ -10,7 +10,7 @@ use super::projection::{ContactRows, ProjectionOutcome};
 use super::simulation::{Closing, Outcome, Simulation, StepReport};
 use super::workspace::{ProjectionWorkspace, StepWorkspace};
 use crate::math::buffer::keep_larger;
-use crate::mechanics::model::Guards;
+use crate::mechanics::model::{Guards, Placing};
 use crate::mechanics::{ContactPoint, Pose};
 
 /// A guard enters the velocity problem only when the step would carry the journal past it
@@ -262,24 +262,25 @@ impl Simulation {
         let selected = |i: usize, cp: &ContactPoint| closed[i] || cp.gap() < 0.0;
         let chord = vs.elimination.as_deref_mut();
         let equality = ContactRows::Equality;
-        let (mut outcome, mut pool_points) =
+        let (mut outcome, mut evaluated) =
             self.project_poses(poses, pool, &selected, equality, chord, projection);
         if !outcome.converged {
             poses.copy_from_slice(&vs.poses);
             let all = |_: usize, _: &ContactPoint| true;
             let chord = vs.elimination.as_deref_mut();
             let inequality = ContactRows::Inequality;
-            (outcome, pool_points) =
+            (outcome, evaluated) =
                 self.project_poses(poses, pool, &all, inequality, chord, projection);
         }
         let known = |k: usize| {
-            let points = pool_points?;
+            let (points, _) = evaluated?;
             pool.binary_search(&k).ok().map(|j| &points[j])
         };
+        let placing = evaluated.map_or(Placing::Fresh, |(_, placed)| Placing::Known(placed));
         let mut after = std::mem::take(points);
         let (candidates, gaps) = (&self.candidates, Guards::Gaps);
         self.model
-            .evaluate_selected_knowing(poses, candidates, known, gaps, &mut after);
+            .evaluate_selected_knowing(poses, candidates, known, gaps, placing, &mut after);
         (outcome, after)
     }
 }

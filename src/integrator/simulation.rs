@@ -19,6 +19,7 @@ use super::sinking::Sinking;
 use super::step_control::{Controller, StepControl, Taken, Verdict, SHRINK_MAX};
 use super::subdivision::Depth;
 use super::workspace::{ProjectionWorkspace, StepWorkspace, VelocityWorkspace};
+use crate::mechanics::contact::clearance::Placements;
 use crate::mechanics::joint::BilateralRow;
 use crate::mechanics::model::{Candidate, State};
 use crate::mechanics::{ContactPoint, Model, Pose};
@@ -156,13 +157,15 @@ pub(super) struct VelocityLists {
 }
 
 /// `Simulation::project_poses`'s lists: the pool's candidates, the poses before the
-/// projection, the poses last evaluated and the pool's points there.
+/// projection, the poses last evaluated and the pool's points and clearance joints'
+/// placements there.
 #[derive(Default)]
 pub(super) struct ProjectionLists {
     candidates: Vec<Candidate>,
     trial: Vec<Pose>,
     at: Vec<Pose>,
     points: Vec<ContactPoint>,
+    placements: Placements,
 }
 
 /// Cloned where a run forks (`probe::run`): each copy then steps on its own, in a fresh
@@ -699,8 +702,9 @@ impl Simulation {
     /// Projects `poses` at t + h: joints, plus those of the candidates `pool` (ascending
     /// indices) that `which` chooses, given their contact points at those poses, with the
     /// chord steps of the step's joint elimination `chord` (`project`). Also returns the
-    /// pool's points at the poses it leaves, when it evaluated them there (a projection that
-    /// finds the poses admissible leaves them as they are).
+    /// pool's points and their clearance joints' placements at the poses it leaves, when
+    /// it evaluated them there (a projection that finds the poses admissible leaves them as
+    /// they are).
     pub(super) fn project_poses<'w>(
         &self,
         poses: &mut [Pose],
@@ -709,7 +713,10 @@ impl Simulation {
         mode: ContactRows,
         chord: Option<&mut Elimination>,
         ws: &'w mut ProjectionWorkspace,
-    ) -> (ProjectionOutcome, Option<&'w [ContactPoint]>) {
+    ) -> (
+        ProjectionOutcome,
+        Option<(&'w [ContactPoint], &'w Placements)>,
+    ) {
         let model = &self.model;
         // chord steps are for joints alone: a pool of contacts may have some projected, and
         // a projection that may need Gauss–Newton starts from the rows' gradients
@@ -733,19 +740,20 @@ impl Simulation {
             trial,
             at,
             points,
+            placements,
         } = lists;
         candidates.clear();
         candidates.extend(pool.iter().map(|&i| self.candidates[i]));
         let candidates = &*candidates;
-        // the poses last evaluated and the pool's points there
-        let last = RefCell::new((at, points));
+        // the poses last evaluated and the pool's points and placements there
+        let last = RefCell::new((at, points, placements));
         let contacts = |ps: &[Pose], rows: &mut ContactRowsOf| {
             let mut last = last.borrow_mut();
-            let (at, pts) = &mut *last;
+            let (at, pts, placements) = &mut *last;
             let (at, pts) = (&mut **at, &mut **pts);
             at.clear();
             at.extend_from_slice(ps);
-            model.evaluate_selected(ps, candidates, pts);
+            model.evaluate_selected_keeping(ps, candidates, placements, pts);
             rows.reserve(pts.len());
             for (&i, cp) in pool.iter().zip(pts.iter()) {
                 if which(i, cp) {
@@ -772,9 +780,9 @@ impl Simulation {
         if outcome.iterations > 0 && self.landed_farther(trial, poses) {
             outcome.converged = false;
         }
-        let (last_at, pts) = last.into_inner();
-        let pool_points = (last_at.as_slice() == &*poses).then_some(&pts[..]);
-        (outcome, pool_points)
+        let (last_at, pts, placements) = last.into_inner();
+        let evaluated = (last_at.as_slice() == &*poses).then_some((&pts[..], &*placements));
+        (outcome, evaluated)
     }
 
     /// Whether a projection from the poses `trial` to `projected` found another solution

@@ -3,7 +3,7 @@
 //! times (a Monte-Carlo sample is "model + initial state → outputs").
 
 use super::body::{Motion, Pose, RigidBody, Twist};
-use super::contact::clearance::{ClearanceJoint, Placed};
+use super::contact::clearance::{ClearanceJoint, Placed, Placements};
 use super::contact::compliant::{CompliantContact, CompliantSource};
 use super::contact::{ContactPair, ContactPoint};
 use super::force::Force;
@@ -295,19 +295,35 @@ impl Model {
         selected: &[Candidate],
         out: &mut Vec<ContactPoint>,
     ) {
-        self.evaluate_selected_knowing(poses, selected, |_| None, Guards::Points, out);
+        let placing = Placing::Fresh;
+        self.evaluate_selected_knowing(poses, selected, |_| None, Guards::Points, placing, out);
+    }
+
+    /// `evaluate_selected`, keeping each clearance joint's placement in `placements` (in
+    /// place of those it held) for a later evaluation at the same poses.
+    pub fn evaluate_selected_keeping(
+        &self,
+        poses: &[Pose],
+        selected: &[Candidate],
+        placements: &mut Placements,
+        out: &mut Vec<ContactPoint>,
+    ) {
+        placements.clear();
+        let placing = Placing::Keep(placements);
+        self.evaluate_selected_knowing(poses, selected, |_| None, Guards::Points, placing, out);
     }
 
     /// `evaluate_selected`, taking the points of contact pairs and joint stops that
     /// `known(k)` gives for the k-th selected candidate (evaluated at the same poses)
-    /// instead of evaluating them again, and of the clearance joints' guards what `guards`
-    /// asks for.
+    /// instead of evaluating them again, of the clearance joints' guards what `guards`
+    /// asks for, and the joints' placements as `placing` says.
     pub fn evaluate_selected_knowing<'a>(
         &self,
         poses: &[Pose],
         selected: &[Candidate],
         known: impl Fn(usize) -> Option<&'a ContactPoint>,
         guards: Guards,
+        mut placing: Placing,
         out: &mut Vec<ContactPoint>,
     ) {
         // one growth at most, where `out` holds fewer entries than there are candidates
@@ -335,13 +351,23 @@ impl Model {
                     let run = rest.iter().map_while(same).count();
                     let points = std::iter::once(point).chain(rest.iter().map_while(same));
                     let clearance = &self.clearance_joints[joint];
-                    let placed = clearance.place(poses);
+                    let fresh;
+                    let placed = match &mut placing {
+                        Placing::Keep(kept) => kept.keep(joint, clearance.place(poses)),
+                        Placing::Known(known) if known.get(joint).is_some() => {
+                            known.get(joint).expect("known")
+                        }
+                        _ => {
+                            fresh = clearance.place(poses);
+                            &fresh
+                        }
+                    };
                     for (j, point) in points.enumerate() {
                         let gap_alone = guards == Guards::Gaps && clearance.is_guard(point);
                         match out.get_mut(k + j) {
-                            Some(slot) if gap_alone => clearance.write_gap(point, &placed, slot),
-                            Some(slot) => clearance.write_point(point, &placed, slot),
-                            None => out.push(clearance.point(point, &placed)),
+                            Some(slot) if gap_alone => clearance.write_gap(point, placed, slot),
+                            Some(slot) => clearance.write_point(point, placed, slot),
+                            None => out.push(clearance.point(point, placed)),
                         }
                     }
                     rest = &rest[run..];
@@ -413,6 +439,16 @@ impl Model {
     }
 }
 
+/// Where an evaluation takes its clearance joints' placements from.
+pub enum Placing<'p> {
+    /// Each joint placed anew.
+    Fresh,
+    /// Those kept at the same poses, the others placed anew.
+    Known(&'p Placements),
+    /// Each joint placed anew and kept.
+    Keep(&'p mut Placements),
+}
+
 /// What an evaluation writes of a clearance joint's guards (`ClearanceJoint::is_guard`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Guards {
@@ -436,7 +472,9 @@ fn put(out: &mut Vec<ContactPoint>, k: usize, make: impl FnOnce() -> ContactPoin
 
 #[cfg(test)]
 mod tests {
-    use crate::mechanics::ContactPoint;
+    use super::{Candidate, Guards, Placing};
+    use crate::mechanics::contact::clearance::Placements;
+    use crate::mechanics::{ContactPoint, Pose};
     use crate::scene::Scene;
 
     /// Points written over the stale entries of a list, shorter or longer than the
@@ -483,5 +521,58 @@ mod tests {
         let kinds = |p: &ContactPoint| (p.gap_law, p.lateral.is_some());
         let present = |k| reversed.iter().any(|p| kinds(p) == k);
         assert!(present((true, false)) && present((false, true)) && present((false, false)));
+    }
+
+    /// Placements kept by an evaluation serve a later one at the same poses bit for bit:
+    /// on the circuit breaker, every candidate evaluated knowing the placement that an
+    /// evaluation of one joint's points kept equals every candidate placed anew. What an
+    /// evaluation keeps replaces all that was kept before: placements kept at other poses
+    /// (which would move the points) are not used.
+    #[test]
+    fn kept_placements_give_the_points_of_fresh_ones() {
+        let mut sim = Scene::bundled_simulation("c60");
+        sim.run_until(0.005, |_, _| {}).unwrap();
+        let (model, poses) = (&sim.model, &sim.state.poses);
+        let all = sim.contact_ids().to_vec();
+        let bits = |points: &[ContactPoint]| format!("{points:?}");
+        let mut fresh = Vec::new();
+        model.evaluate_selected(poses, &all, &mut fresh);
+        let known = |placements: &Placements| {
+            let mut out = Vec::new();
+            let placing = Placing::Known(placements);
+            model.evaluate_selected_knowing(
+                poses,
+                &all,
+                |_| None,
+                Guards::Points,
+                placing,
+                &mut out,
+            );
+            out
+        };
+        let moved: Vec<Pose> = poses
+            .iter()
+            .map(|p| Pose {
+                x: p.x.add_scalar(1e-5),
+                p: p.p,
+            })
+            .collect();
+        let mut placements = Placements::default();
+        let mut scratch = Vec::new();
+        model.evaluate_selected_keeping(&moved, &all, &mut placements, &mut scratch);
+        assert_ne!(
+            bits(&known(&placements)),
+            bits(&fresh),
+            "the test cannot fail"
+        );
+        let first_joint: Vec<Candidate> = all
+            .iter()
+            .copied()
+            .filter(|c| matches!(c, Candidate::Clearance { joint: 0, .. }))
+            .collect();
+        assert!(!first_joint.is_empty() && first_joint.len() < all.len());
+        model.evaluate_selected_keeping(poses, &first_joint, &mut placements, &mut scratch);
+        assert!(placements.get(0).is_some() && placements.get(1).is_none());
+        assert_eq!(bits(&known(&placements)), bits(&fresh));
     }
 }

@@ -341,6 +341,33 @@ pub struct Placed {
     rings: [(Ring, (f64, f64)); 2],
 }
 
+/// Clearance joints placed at one set of poses, by joint index: kept where an evaluation
+/// places them, so that a later evaluation at the same poses need not place them again.
+#[derive(Default)]
+pub struct Placements {
+    placed: Vec<Option<Placed>>,
+}
+
+impl Placements {
+    /// Forgets every placement (the poses changed).
+    pub fn clear(&mut self) {
+        self.placed.iter_mut().for_each(|p| *p = None);
+    }
+
+    /// Joint `joint`'s placement, if it has been kept.
+    pub fn get(&self, joint: usize) -> Option<&Placed> {
+        self.placed.get(joint)?.as_ref()
+    }
+
+    /// Keeps `placed` as joint `joint`'s placement.
+    pub fn keep(&mut self, joint: usize, placed: Placed) -> &Placed {
+        if self.placed.len() <= joint {
+            self.placed.resize_with(joint + 1, || None);
+        }
+        self.placed[joint].insert(placed)
+    }
+}
+
 /// (sin, cos) of `k`/`n` of a turn: a flange's rim point k of n. Tabulated once for the
 /// counts up to `TABULATED_RIM`, so that a rim point costs no sine and cosine.
 fn rim_turn(k: usize, n: usize) -> (f64, f64) {
