@@ -200,7 +200,7 @@ impl TorsionalSpring {
     pub fn angle(&self, poses: &[Pose]) -> (f64, Vector3<f64>) {
         let pa = pose_of(self.a, poses);
         let pb = pose_of(self.b, poses);
-        let n = pa.dir(&self.axis_a);
+        let n = self.axis(poses);
         let ra = pa.dir(&self.ref_a);
         let rb = pb.dir(&self.ref_b);
         let rb = rb - n * n.dot(&rb);
